@@ -1,0 +1,252 @@
+//! Domains: oriented boxes in world space, optionally divided into cells.
+//!
+//! A domain is a corner `origin`, edge `lengths` along its own axes, and an `orientation`
+//! rotation vector (axis times angle, radians) from the world axes. With cells, samples sit at
+//! cell centres (cell `(i, j, k)` is centred at local `((i + ½)·cx, (j + ½)·cy, (k + ½)·cz)`).
+//! The one key decision: the number of cells along an axis is `round(length / cell)` (at least
+//! one) and the cell size is then adjusted to `length / count`, so the cells tile the box
+//! exactly; a script that asks for cell 0.1 over length 2 gets 20 cells of exactly 0.1.
+
+use crate::failure::{Failure, Outcome};
+use crate::sample::Aabb;
+use glam::{DMat3, DQuat, DVec3};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// An oriented box, optionally with a cell grid.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Domain {
+    pub origin: DVec3,
+    pub lengths: DVec3,
+    /// Rotation vector as given (axis × angle).
+    pub orientation: DVec3,
+    /// Columns are the domain's axes in world space.
+    pub rotation: DMat3,
+    /// Cell counts along the domain's axes; `None` for a domain without cells.
+    pub resolution: Option<[usize; 3]>,
+    /// Cell sizes along the domain's axes (zero when there are no cells).
+    pub cell: DVec3,
+}
+
+/// Bytes that one grid may occupy, unless changed with `set_memory_limit`.
+static MEMORY_LIMIT: AtomicU64 = AtomicU64::new(0);
+
+/// Sets the largest grid, in bytes, that a domain or cache may describe.
+pub fn set_memory_limit(bytes: u64) {
+    MEMORY_LIMIT.store(bytes.max(1), Ordering::Relaxed);
+}
+
+/// The current limit: by default half the machine's physical memory (4 GiB if unknown).
+pub fn memory_limit() -> u64 {
+    match MEMORY_LIMIT.load(Ordering::Relaxed) {
+        0 => physical_memory().map(|m| m / 2).unwrap_or(4 << 30),
+        limit => limit,
+    }
+}
+
+fn physical_memory() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemTotal:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
+fn human_bytes(bytes: f64) -> String {
+    const UNITS: [&str; 5] = ["B", "KiB", "MiB", "GiB", "TiB"];
+    let mut value = bytes;
+    let mut unit = 0;
+    while value >= 1024.0 && unit + 1 < UNITS.len() {
+        value /= 1024.0;
+        unit += 1;
+    }
+    format!("{value:.1} {}", UNITS[unit])
+}
+
+impl Domain {
+    /// A domain without cells.
+    pub fn new(origin: DVec3, lengths: DVec3, orientation: DVec3) -> Outcome<Domain> {
+        check_finite("origin", origin)?;
+        check_finite("orientation", orientation)?;
+        check_positive("lengths", lengths)?;
+        let rotation = if orientation == DVec3::ZERO {
+            DMat3::IDENTITY
+        } else {
+            DMat3::from_quat(DQuat::from_scaled_axis(orientation))
+        };
+        Ok(Domain {
+            origin,
+            lengths,
+            orientation,
+            rotation,
+            resolution: None,
+            cell: DVec3::ZERO,
+        })
+    }
+
+    /// A domain with cells of size `cell_xy` along its first two axes and `cell_z` along the
+    /// third.
+    pub fn with_cells(
+        origin: DVec3,
+        lengths: DVec3,
+        orientation: DVec3,
+        cell_xy: f64,
+        cell_z: f64,
+    ) -> Outcome<Domain> {
+        let mut domain = Domain::new(origin, lengths, orientation)?;
+        let requested = DVec3::new(cell_xy, cell_xy, cell_z);
+        check_positive("cell size", requested)?;
+        let mut resolution = [0usize; 3];
+        let mut cells = 1f64;
+        for axis in 0..3 {
+            let count = (lengths[axis] / requested[axis]).round().max(1.0);
+            cells *= count;
+            resolution[axis] = count as usize;
+        }
+        let bytes = cells * 4.0;
+        if !(bytes <= memory_limit() as f64) || cells > (u32::MAX as f64) * 64.0 {
+            return Err(Failure::new(format!(
+                "a domain of {} x {} x {} cells needs {} for one scalar grid, over the memory limit of {}",
+                resolution[0],
+                resolution[1],
+                resolution[2],
+                human_bytes(bytes),
+                human_bytes(memory_limit() as f64)
+            ))
+            .with_help("use a larger cell size or a smaller domain, or raise the limit with --memory-limit"));
+        }
+        domain.cell = lengths / DVec3::new(resolution[0] as f64, resolution[1] as f64, resolution[2] as f64);
+        domain.resolution = Some(resolution);
+        Ok(domain)
+    }
+
+    /// Number of cells (0 for a domain without cells).
+    pub fn cell_count(&self) -> usize {
+        self.resolution.map(|r| r[0] * r[1] * r[2]).unwrap_or(0)
+    }
+
+    /// Checks that a grid of `width` components per cell fits in memory.
+    pub fn check_grid_memory(&self, width: usize) -> Outcome<()> {
+        let bytes = self.cell_count() as f64 * width as f64 * 4.0;
+        if bytes > memory_limit() as f64 {
+            return Err(Failure::new(format!(
+                "a grid of {} cells with {} components needs {}, over the memory limit of {}",
+                self.cell_count(),
+                width,
+                human_bytes(bytes),
+                human_bytes(memory_limit() as f64)
+            ))
+            .with_help("use a larger cell size or a smaller domain, or raise the limit with --memory-limit"));
+        }
+        Ok(())
+    }
+
+    /// World position of a point given in the domain's local frame (corner at zero).
+    pub fn local_to_world(&self, local: DVec3) -> DVec3 {
+        self.origin + self.rotation * local
+    }
+
+    /// The domain's local coordinates of a world point.
+    pub fn world_to_local(&self, world: DVec3) -> DVec3 {
+        self.rotation.transpose() * (world - self.origin)
+    }
+
+    /// World position of the centre of cell `(i, j, k)`.
+    pub fn cell_center(&self, i: usize, j: usize, k: usize) -> DVec3 {
+        let local = DVec3::new(i as f64 + 0.5, j as f64 + 0.5, k as f64 + 0.5) * self.cell;
+        self.local_to_world(local)
+    }
+
+    /// Continuous cell-index coordinates of a world point: cell centre `(i, j, k)` maps to
+    /// `(i, j, k)` exactly.
+    pub fn world_to_index(&self, world: DVec3) -> DVec3 {
+        self.world_to_local(world) / self.cell - DVec3::splat(0.5)
+    }
+
+    /// The eight corners of the box in world space.
+    pub fn corners(&self) -> [DVec3; 8] {
+        let mut corners = [DVec3::ZERO; 8];
+        for (n, corner) in corners.iter_mut().enumerate() {
+            let local = DVec3::new(
+                if n & 1 != 0 { self.lengths.x } else { 0.0 },
+                if n & 2 != 0 { self.lengths.y } else { 0.0 },
+                if n & 4 != 0 { self.lengths.z } else { 0.0 },
+            );
+            *corner = self.local_to_world(local);
+        }
+        corners
+    }
+
+    /// The world-axis-aligned box that encloses the domain.
+    pub fn bounds(&self) -> Aabb {
+        let corners = self.corners();
+        let mut min = corners[0];
+        let mut max = corners[0];
+        for c in &corners[1..] {
+            min = min.min(*c);
+            max = max.max(*c);
+        }
+        Aabb::new(min, max)
+    }
+
+    /// Is the world point inside the box (boundary included)?
+    pub fn contains(&self, world: DVec3) -> bool {
+        let local = self.world_to_local(world);
+        local.cmpge(DVec3::ZERO).all() && local.cmple(self.lengths).all()
+    }
+}
+
+fn check_finite(what: &str, v: DVec3) -> Outcome<()> {
+    if !v.is_finite() {
+        return Err(Failure::new(format!("domain {what} must be finite, got {v}")));
+    }
+    Ok(())
+}
+
+fn check_positive(what: &str, v: DVec3) -> Outcome<()> {
+    check_finite(what, v)?;
+    if v.min_element() <= 0.0 {
+        return Err(Failure::new(format!(
+            "domain {what} must be positive, got ({}, {}, {})",
+            v.x, v.y, v.z
+        )));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cells_tile_the_box_exactly() {
+        let d = Domain::with_cells(DVec3::splat(-1.0), DVec3::splat(2.0), DVec3::ZERO, 0.1, 0.1)
+            .unwrap();
+        assert_eq!(d.resolution, Some([20, 20, 20]));
+        assert!((d.cell_center(0, 0, 0) - DVec3::splat(-0.95)).length() < 1e-12);
+        assert!((d.cell_center(19, 19, 19) - DVec3::splat(0.95)).length() < 1e-12);
+        let idx = d.world_to_index(d.cell_center(3, 7, 11));
+        assert!((idx - DVec3::new(3.0, 7.0, 11.0)).length() < 1e-9);
+    }
+
+    #[test]
+    fn rotated_domain_round_trips() {
+        let d = Domain::with_cells(
+            DVec3::new(1.0, 2.0, 3.0),
+            DVec3::new(1.0, 2.0, 0.5),
+            DVec3::new(0.3, -0.2, 0.9),
+            0.05,
+            0.1,
+        )
+        .unwrap();
+        let p = DVec3::new(1.3, 2.1, 3.2);
+        assert!((d.local_to_world(d.world_to_local(p)) - p).length() < 1e-12);
+        assert_eq!(d.resolution, Some([20, 40, 5]));
+    }
+
+    #[test]
+    fn bad_sizes_are_errors() {
+        assert!(Domain::new(DVec3::ZERO, DVec3::new(1.0, 0.0, 1.0), DVec3::ZERO).is_err());
+        assert!(Domain::with_cells(DVec3::ZERO, DVec3::ONE, DVec3::ZERO, -0.1, 0.1).is_err());
+        let huge = Domain::with_cells(DVec3::ZERO, DVec3::splat(1e4), DVec3::ZERO, 1e-3, 1e-3);
+        assert!(huge.unwrap_err().message.contains("memory limit"));
+    }
+}

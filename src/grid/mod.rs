@@ -1,0 +1,3 @@
+//! Grids: domains, the caches that sample fields over them, and grid file formats.
+
+pub mod domain;

@@ -1,0 +1,13 @@
+//! felt: a field expression language for volumetric effects.
+//!
+//! The path of data is one-way, and each arrow is a module boundary:
+//! source text → `syntax` (lexer, parser, AST with spans) → `check` (types, names, arity; all
+//! errors before anything runs) → `interp` (statements, functions, plain values; builds field
+//! graphs) → `field` (hash-consed graphs compiled into batch programs) and `grid` (domains,
+//! caches, files) → `render` (raymarcher, image writers). Downstream modules never reach back
+//! upstream: the raymarcher knows fields, not syntax; the evaluator knows nodes, not statements.
+
+pub mod failure;
+pub mod grid;
+pub mod sample;
+pub mod syntax;

@@ -1,0 +1,130 @@
+//! The contract between whatever produces values at points and whatever consumes them.
+//!
+//! Producers are compiled fields (`field`), grids (`grid`: caches, files, FFT results) and
+//! anything later features add; consumers are cache fills, the raymarcher, mesh extraction and
+//! inspection builtins. Both sides meet here, in a handful of small traits, so that neither
+//! needs the other's internals. The one key decision: values move in *blocks* of up to
+//! `BLOCK` points, as separate x/y/z slices (structure of arrays), so every per-point cost of
+//! dispatch or interpretation is paid once per block instead of once per point.
+//! Positions are always `f64` world coordinates; values come back in `f32` (storage and
+//! rendering precision) or `f64` (inspection precision), component-major:
+//! component `c` of point `i` is `out[c * n + i]`.
+
+use glam::DVec3;
+use std::fmt::Debug;
+
+/// The largest number of points in one evaluation block.
+pub const BLOCK: usize = 256;
+
+/// An axis-aligned box in world space.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aabb {
+    pub min: DVec3,
+    pub max: DVec3,
+}
+
+impl Aabb {
+    pub fn new(min: DVec3, max: DVec3) -> Aabb {
+        Aabb { min, max }
+    }
+
+    /// The box of all space; what a field with no known support reports.
+    pub fn everything() -> Aabb {
+        Aabb::new(DVec3::splat(f64::NEG_INFINITY), DVec3::splat(f64::INFINITY))
+    }
+
+    pub fn is_empty(&self) -> bool {
+        !(self.min.x <= self.max.x && self.min.y <= self.max.y && self.min.z <= self.max.z)
+    }
+
+    pub fn is_finite(&self) -> bool {
+        self.min.is_finite() && self.max.is_finite()
+    }
+
+    pub fn intersection(&self, other: &Aabb) -> Aabb {
+        Aabb::new(self.min.max(other.min), self.max.min(other.max))
+    }
+
+    pub fn union(&self, other: &Aabb) -> Aabb {
+        Aabb::new(self.min.min(other.min), self.max.max(other.max))
+    }
+
+    pub fn contains(&self, p: DVec3) -> bool {
+        p.cmpge(self.min).all() && p.cmple(self.max).all()
+    }
+
+    pub fn size(&self) -> DVec3 {
+        self.max - self.min
+    }
+
+    pub fn center(&self) -> DVec3 {
+        (self.min + self.max) * 0.5
+    }
+}
+
+/// How a grid interpolates between its samples.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+pub enum Interp {
+    /// Trilinear between the eight nearest cell centres.
+    #[default]
+    Linear,
+    /// Catmull-Rom (Keys, a = -1/2) over the 4x4x4 nearest cell centres: third-order accurate.
+    Cubic,
+}
+
+/// How the gradient of a grid-backed field is computed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+pub enum GridDerivative {
+    /// The exact derivative of the interpolating function.
+    #[default]
+    Interpolant,
+    /// Central differences of the interpolated field at one cell size.
+    Central,
+}
+
+/// A sampled grid that a field program can read: a cache, a grid loaded from a file, the
+/// result of an FFT. Implemented in `grid`, called from the field evaluator.
+pub trait GridSource: Send + Sync + Debug {
+    /// Components per sample: 1 (scalar), 3 (vector) or 9 (matrix, row-major).
+    fn width(&self) -> usize;
+    /// A number unique to this grid's contents, used to hash-cons field nodes that read it.
+    fn identity(&self) -> u64;
+    /// A short description for profiles and error messages (`scalarcache over [-1,1]^3`).
+    fn label(&self) -> String;
+    /// Interpolated values at `xs.len()` world points, component-major, `f64`.
+    /// Points outside the grid read the background value.
+    fn sample(&self, interp: Interp, xs: &[f64], ys: &[f64], zs: &[f64], out: &mut [f64]);
+    /// Spatial derivatives of the interpolant: `out[(c * 3 + j) * n + i]` is d(component c)/dx_j
+    /// at point i. Zero outside the grid.
+    fn sample_gradient(&self, interp: Interp, xs: &[f64], ys: &[f64], zs: &[f64], out: &mut [f64]);
+    /// The world box outside which every value is the background.
+    fn bounds(&self) -> Aabb;
+    /// The value outside the grid, per component.
+    fn background(&self) -> Vec<f64>;
+    /// Cell spacing along the grid's own axes (for central differences).
+    fn cell_size(&self) -> DVec3;
+    /// A conservative range `(lo, hi)` per component of the values inside `region`.
+    /// May fill the parts of the grid it needs.
+    fn range(&self, region: &Aabb) -> Vec<(f64, f64)>;
+}
+
+/// Evaluates a field on blocks of points. Holds the per-thread scratch space, so each thread
+/// makes its own with `FieldSampler::evaluator`.
+pub trait BlockEval {
+    /// Values at `xs.len() <= BLOCK` points in `f32`, component-major into `out`.
+    fn eval_f32(&mut self, xs: &[f64], ys: &[f64], zs: &[f64], out: &mut [f32]);
+    /// The same in `f64`.
+    fn eval_f64(&mut self, xs: &[f64], ys: &[f64], zs: &[f64], out: &mut [f64]);
+}
+
+/// A field ready to be evaluated: what cache fills, the raymarcher and mesh extraction consume.
+pub trait FieldSampler: Send + Sync {
+    /// Components per value: 1, 3 or 9.
+    fn width(&self) -> usize;
+    /// Scratch space for one thread.
+    fn evaluator(&self) -> Box<dyn BlockEval + '_>;
+    /// A conservative box outside which the field is zero, if one is known.
+    fn bounds(&self) -> Option<Aabb>;
+    /// A conservative range `(lo, hi)` per component over `region` (interval evaluation).
+    fn range(&self, region: &Aabb) -> Vec<(f64, f64)>;
+}
