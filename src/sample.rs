@@ -128,3 +128,84 @@ pub trait FieldSampler: Send + Sync {
     /// A conservative range `(lo, hi)` per component over `region` (interval evaluation).
     fn range(&self, region: &Aabb) -> Vec<(f64, f64)>;
 }
+
+/// A field given by a Rust closure of the world position: for tests, benchmarks, and
+/// engine-internal fields that have no graph. `f(p, out)` writes `width` components.
+pub struct FnField<F> {
+    width: usize,
+    function: F,
+    bounds: Option<Aabb>,
+}
+
+impl<F> FnField<F>
+where
+    F: Fn(DVec3, &mut [f64]) + Send + Sync,
+{
+    pub fn new(width: usize, function: F) -> FnField<F> {
+        FnField {
+            width,
+            function,
+            bounds: None,
+        }
+    }
+
+    pub fn with_bounds(mut self, bounds: Aabb) -> FnField<F> {
+        self.bounds = Some(bounds);
+        self
+    }
+}
+
+struct FnEval<'a, F> {
+    field: &'a FnField<F>,
+    value: Vec<f64>,
+}
+
+impl<F> BlockEval for FnEval<'_, F>
+where
+    F: Fn(DVec3, &mut [f64]) + Send + Sync,
+{
+    fn eval_f32(&mut self, xs: &[f64], ys: &[f64], zs: &[f64], out: &mut [f32]) {
+        let n = xs.len();
+        for i in 0..n {
+            (self.field.function)(DVec3::new(xs[i], ys[i], zs[i]), &mut self.value);
+            for (c, v) in self.value.iter().enumerate() {
+                out[c * n + i] = *v as f32;
+            }
+        }
+    }
+
+    fn eval_f64(&mut self, xs: &[f64], ys: &[f64], zs: &[f64], out: &mut [f64]) {
+        let n = xs.len();
+        for i in 0..n {
+            (self.field.function)(DVec3::new(xs[i], ys[i], zs[i]), &mut self.value);
+            for (c, v) in self.value.iter().enumerate() {
+                out[c * n + i] = *v;
+            }
+        }
+    }
+}
+
+impl<F> FieldSampler for FnField<F>
+where
+    F: Fn(DVec3, &mut [f64]) + Send + Sync,
+{
+    fn width(&self) -> usize {
+        self.width
+    }
+
+    fn evaluator(&self) -> Box<dyn BlockEval + '_> {
+        Box::new(FnEval {
+            field: self,
+            value: vec![0.0; self.width],
+        })
+    }
+
+    fn bounds(&self) -> Option<Aabb> {
+        self.bounds
+    }
+
+    /// A closure has no interval form: the range is unknown, hence unbounded.
+    fn range(&self, _region: &Aabb) -> Vec<(f64, f64)> {
+        vec![(f64::NEG_INFINITY, f64::INFINITY); self.width]
+    }
+}
