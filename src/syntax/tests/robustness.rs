@@ -1,0 +1,1 @@
+//! No input panics, hangs or overflows the stack.
