@@ -107,29 +107,18 @@ pub fn prefix<'src>(ops: Vec<(UnaryOp, usize)>, operand: Expr) -> Built<'src, Ex
     Ok(e)
 }
 
-/// `base ^ (ops e1) ^ (ops e2) ...` folded right to left: `^` is right-associative, and each
-/// right operand may carry its own prefix operators (`2^-1`).
-pub fn power<'src>(base: Expr, rest: Vec<(Vec<(UnaryOp, usize)>, Expr)>) -> Built<'src, Expr> {
-    let mut operands = Vec::with_capacity(rest.len() + 1);
-    let mut prefixes = Vec::with_capacity(rest.len() + 1);
-    operands.push(base);
-    prefixes.push(Vec::new());
-    for (ops, e) in rest {
-        prefixes.push(ops);
-        operands.push(e);
+/// `base ^ (ops e1) ^ (ops e2) ...` folded from the right: `^` is right-associative, and each
+/// right operand may carry prefix operators (`2^-1`), which apply to the whole power to its
+/// right: in `2 ^ -x ^ 2` the minus negates `x ^ 2`.
+pub fn power<'src>(base: Expr, mut rest: Vec<(Vec<(UnaryOp, usize)>, Expr)>) -> Built<'src, Expr> {
+    let Some((ops, last)) = rest.pop() else {
+        return Ok(base);
+    };
+    let mut exponent = prefix(ops, last)?;
+    while let Some((ops, e)) = rest.pop() {
+        exponent = prefix(ops, binary(e, BinaryOp::Pow, exponent)?)?;
     }
-    let mut acc: Option<Expr> = None;
-    while let (Some(e), Some(ops)) = (operands.pop(), prefixes.pop()) {
-        acc = Some(match acc {
-            None => prefix(ops, e)?,
-            Some(exponent) => {
-                // The prefix operators of this operand apply to the whole power to its right:
-                // in `2 ^ -x ^ 2`, the minus negates `x ^ 2`.
-                prefix(ops, binary(e, BinaryOp::Pow, exponent)?)?
-            }
-        });
-    }
-    Ok(acc.expect("power has at least its base"))
+    binary(base, BinaryOp::Pow, exponent)
 }
 
 pub fn index<'src>(target: Expr, at: Expr, end: usize) -> Built<'src, Expr> {

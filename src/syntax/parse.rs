@@ -5,9 +5,10 @@
 //! parser generator's: lalrpop reports "unrecognized token, expected one of 40 terminals";
 //! this module names the token as written (`` unexpected `}` ``), summarises large expected
 //! sets ("expected an expression", "expected a statement"), puts a missing `;` at the end of
-//! the line it belongs to, and points an unclosed bracket's error at the bracket. Before the
-//! parser runs, one linear scan over the tokens bounds the nesting depth, so no input can
-//! build a tree too deep for the recursive passes downstream, nor make error recovery slow.
+//! the line it belongs to, names the line of a bracket that is never closed, and drops the
+//! echo errors that recovery produces. Before the parser runs, one linear scan over the
+//! tokens bounds the nesting depth, so no input can build a tree too deep for the recursive
+//! passes downstream, nor make error recovery slow.
 
 use std::fmt;
 
@@ -200,9 +201,13 @@ fn scan_brackets(file: FileId, tokens: &[Spanned<'_>]) -> Brackets {
             pending -= *level;
             *level = 0;
         }
-        if let Some(message) = deeper
+        if let Some(mut message) = deeper
             && open.len() + pending > MAX_NESTING
         {
+            // Name what most of the depth is made of.
+            if pending >= open.len() {
+                message = "statements nested too deeply";
+            }
             let error =
                 SyntaxError::new(message, Span::new(file, *start, *end)).with_help(format!(
                     "felt allows {MAX_NESTING} levels of nesting; \
