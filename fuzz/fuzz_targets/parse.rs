@@ -10,10 +10,16 @@ use libfuzzer_sys::fuzz_target;
 fuzz_target!(|data: &[u8]| {
     let text = String::from_utf8_lossy(data);
     if let Err(errors) = parse(FileId(0), &text) {
-        assert!(!errors.is_empty(), "a failed parse reports at least one error");
+        assert!(
+            !errors.is_empty(),
+            "a failed parse reports at least one error"
+        );
         for error in &errors {
             let (start, end) = (error.span.start as usize, error.span.end as usize);
-            assert!(start <= end && end <= text.len(), "error span inside the text");
+            assert!(
+                start <= end && end <= text.len(),
+                "error span inside the text"
+            );
         }
     }
     let _ = is_incomplete(&text);
