@@ -20,22 +20,24 @@
 //! - Non-finite values are stored as computed and counted, with the position of the first such
 //!   cell (lowest cell index), for the interpreter to warn about.
 //!
-//! Reading (interpolation, gradients, ranges) lives in `cache/read.rs`.
+//! Filling bricks lives in `cache/fill.rs`; reading (interpolation, gradients, ranges) in
+//! `cache/read.rs`.
 
+mod fill;
 mod read;
+#[cfg(test)]
+mod test_support;
 #[cfg(test)]
 mod tests;
 
 use crate::failure::{Failure, Outcome};
 use crate::grid::domain::Domain;
 use crate::grid::profile::{self, GridStats};
-use crate::sample::{Aabb, BLOCK, BlockEval, FieldSampler};
+use crate::sample::FieldSampler;
 use glam::{DMat3, DVec3};
-use rayon::prelude::*;
 use std::fmt;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, OnceLock};
-use std::time::Instant;
 
 /// Cells along each edge of a brick.
 pub const BRICK: usize = 8;
@@ -171,11 +173,15 @@ impl Cache {
         origin_label: String,
     ) -> Outcome<Cache> {
         if source.width() != width {
+            let field = match source.width() {
+                1 => "a scalarfield".to_string(),
+                3 => "a vectorfield".to_string(),
+                9 => "a matrixfield".to_string(),
+                other => format!("a field of {other} components"),
+            };
             return Err(Failure::new(format!(
-                "cannot write a field with {} components into a {} with {}",
-                source.width(),
-                kind_name(width),
-                width
+                "cannot write {field} into a {}",
+                kind_name(width)
             )));
         }
         let mut cache = Cache::empty(domain, width, background, origin_label)?;
@@ -375,24 +381,6 @@ impl Cache {
         Some(&self.brick_values(index)[at..at + self.width])
     }
 
-    /// Fills every unresolved brick, in parallel across bricks. Each rayon task makes one
-    /// evaluator and reuses it for the bricks it takes.
-    pub fn fill_all(&self) {
-        let Some(source) = lock(&self.source).clone() else {
-            return;
-        };
-        let pending: Vec<usize> = (0..self.bricks.len())
-            .filter(|&index| self.bricks[index].get().is_none())
-            .collect();
-        pending.par_iter().for_each_init(
-            || source.evaluator(),
-            |evaluator, &index| {
-                self.bricks[index]
-                    .get_or_init(|| self.compute_brick(index, source.as_ref(), evaluator.as_mut()));
-            },
-        );
-    }
-
     /// Bricks that hold values (not uniform background), in brick order; fills all first.
     pub fn stored_bricks(&self) -> impl Iterator<Item = BrickView<'_>> {
         self.fill_all();
@@ -436,19 +424,6 @@ impl Cache {
             .unwrap_or(&self.background_brick)
     }
 
-    fn fill_lazily(&self, index: usize) -> Brick {
-        let source = lock(&self.source).clone();
-        match source {
-            Some(source) => {
-                let mut evaluator = source.evaluator();
-                self.compute_brick(index, source.as_ref(), evaluator.as_mut())
-            }
-            // The source goes only after every brick is resolved, so an unresolved brick
-            // always finds it; background is the safe answer should that ever change.
-            None => self.uniform_brick(),
-        }
-    }
-
     fn uniform_brick(&self) -> Brick {
         let mut range = [(0.0, 0.0); MAX_WIDTH];
         for (slot, &b) in range.iter_mut().zip(&self.background) {
@@ -457,160 +432,6 @@ impl Cache {
         Brick {
             values: None,
             range,
-        }
-    }
-
-    /// World box of the centres of cells `lo .. hi`.
-    fn centre_box(&self, lo: [usize; 3], hi: [usize; 3]) -> Aabb {
-        let first = self.domain.cell_center(lo[0], lo[1], lo[2]);
-        let mut bounds = Aabb::new(first, first);
-        // The domain may be rotated: take all eight corner centres.
-        for n in 1..8 {
-            let pick = |bit: usize, a: usize| if n & bit != 0 { hi[a] - 1 } else { lo[a] };
-            let corner = self.domain.cell_center(pick(1, 0), pick(2, 1), pick(4, 2));
-            bounds = bounds.union(&Aabb::new(corner, corner));
-        }
-        bounds
-    }
-
-    /// Evaluates one brick (or finds it empty by its range). Called exactly once per brick,
-    /// from inside its `OnceLock`.
-    fn compute_brick(
-        &self,
-        index: usize,
-        source: &dyn FieldSampler,
-        evaluator: &mut dyn BlockEval,
-    ) -> Brick {
-        let started = Instant::now();
-        let (lo, hi) = self.shape.brick_cells(index);
-        let range = source.range(&self.centre_box(lo, hi));
-        let background_only = range.len() == self.width
-            && range
-                .iter()
-                .zip(&self.background)
-                .all(|(&(low, high), &b)| low == b && high == b);
-        if background_only {
-            let brick = self.uniform_brick();
-            let nanos = started.elapsed().as_nanos() as u64;
-            self.skipped.fetch_add(1, Ordering::Relaxed);
-            self.fill_nanos.fetch_add(nanos, Ordering::Relaxed);
-            if let Some(stats) = &self.profile {
-                stats.add_skipped(nanos);
-            }
-            self.note_resolved();
-            return brick;
-        }
-
-        let mut xs = [0.0f64; BRICK_CELLS];
-        let mut ys = [0.0f64; BRICK_CELLS];
-        let mut zs = [0.0f64; BRICK_CELLS];
-        let mut locals = [0u16; BRICK_CELLS];
-        let mut count = 0;
-        for z in lo[2]..hi[2] {
-            for y in lo[1]..hi[1] {
-                for x in lo[0]..hi[0] {
-                    let p = self.domain.cell_center(x, y, z);
-                    xs[count] = p.x;
-                    ys[count] = p.y;
-                    zs[count] = p.z;
-                    locals[count] = local_index(x - lo[0], y - lo[1], z - lo[2]) as u16;
-                    count += 1;
-                }
-            }
-        }
-        let width = self.width;
-        let mut values = self.background_brick.clone();
-        let mut out = [0.0f32; BLOCK * MAX_WIDTH];
-        for start in (0..count).step_by(BLOCK) {
-            let n = BLOCK.min(count - start);
-            let block = start..start + n;
-            let out = &mut out[..n * width];
-            evaluator.eval_f32(&xs[block.clone()], &ys[block.clone()], &zs[block], out);
-            for i in 0..n {
-                let at = locals[start + i] as usize * width;
-                for c in 0..width {
-                    values[at + c] = out[c * n + i];
-                }
-            }
-        }
-        let brick = self.store_computed(index, values);
-        let nanos = started.elapsed().as_nanos() as u64;
-        self.fill_nanos.fetch_add(nanos, Ordering::Relaxed);
-        if let Some(stats) = &self.profile {
-            let bytes = brick.values.as_ref().map_or(0, |v| v.len() as u64 * 4);
-            stats.add_filled(nanos, bytes);
-        }
-        self.note_resolved();
-        brick
-    }
-
-    /// Given data for a brick (constructors from data).
-    fn store_given(&self, index: usize, values: Box<[f32]>) {
-        let brick = self.store_computed(index, values);
-        // Each index is set once, by the constructor that owns the cache.
-        let _ = self.bricks[index].set(brick);
-        self.note_resolved();
-    }
-
-    /// Scans a brick's values: range, non-finite values, and whether it is all background.
-    fn store_computed(&self, index: usize, values: Box<[f32]>) -> Brick {
-        let width = self.width;
-        let (lo, hi) = self.shape.brick_cells(index);
-        let mut range = [(f32::INFINITY, f32::NEG_INFINITY); MAX_WIDTH];
-        let mut has_nan = [false; MAX_WIDTH];
-        let mut nonfinite = 0u64;
-        let mut first: Option<[usize; 3]> = None;
-        for z in lo[2]..hi[2] {
-            for y in lo[1]..hi[1] {
-                for x in lo[0]..hi[0] {
-                    let at = local_index(x - lo[0], y - lo[1], z - lo[2]) * width;
-                    for c in 0..width {
-                        let v = values[at + c];
-                        let (low, high) = &mut range[c];
-                        *low = low.min(v);
-                        *high = high.max(v);
-                        if !v.is_finite() {
-                            has_nan[c] |= v.is_nan();
-                            nonfinite += 1;
-                            first.get_or_insert([x, y, z]);
-                        }
-                    }
-                }
-            }
-        }
-        for c in 0..width {
-            if has_nan[c] {
-                range[c] = (f32::NEG_INFINITY, f32::INFINITY);
-            }
-        }
-        if let Some([x, y, z]) = first {
-            self.nonfinite.fetch_add(nonfinite, Ordering::Relaxed);
-            let cell = self.shape.cell_index(x, y, z);
-            let mut slot = lock(&self.first_nonfinite);
-            if slot.is_none_or(|(earliest, _)| cell < earliest) {
-                *slot = Some((cell, self.domain.cell_center(x, y, z)));
-            }
-        }
-        self.filled.fetch_add(1, Ordering::Relaxed);
-        let all_background = values
-            .iter()
-            .zip(self.background_brick.iter())
-            .all(|(v, b)| v.to_bits() == b.to_bits());
-        let values = if all_background {
-            None
-        } else {
-            self.stored_bytes
-                .fetch_add(values.len() as u64 * 4, Ordering::Relaxed);
-            Some(values)
-        };
-        Brick { values, range }
-    }
-
-    /// Counts a resolved brick; the last one releases the source.
-    fn note_resolved(&self) {
-        if self.resolved.fetch_add(1, Ordering::AcqRel) + 1 == self.bricks.len() {
-            let source = lock(&self.source).take();
-            drop(source);
         }
     }
 }

@@ -50,12 +50,14 @@ pub const CUBIC_WEIGHT_BOUND: f64 = 1.25;
 pub const BORDER_WEIGHT_BOUND: f64 = 2.0;
 
 /// Linear weights `(1 - t, t)` and their slopes.
+#[inline]
 pub fn linear_weights(t: f64) -> ([f64; 2], [f64; 2]) {
     ([1.0 - t, t], [-1.0, 1.0])
 }
 
 /// Catmull–Rom weights for the samples at offsets `-1, 0, 1, 2` from the cell at or below the
 /// point, at fraction `t` past it, and their slopes.
+#[inline]
 pub fn catmull_rom_weights(t: f64) -> ([f64; 4], [f64; 4]) {
     let t2 = t * t;
     let t3 = t2 * t;
@@ -76,6 +78,7 @@ pub fn catmull_rom_weights(t: f64) -> ([f64; 4], [f64; 4]) {
 
 /// The stencil along one axis of `cells` cells for index coordinate `u` (meant to lie in
 /// `[-½, cells - ½]`; values beyond extrapolate linearly too).
+#[inline(always)]
 pub fn axis_stencil(interp: Interp, u: f64, cells: usize) -> AxisStencil {
     if cells <= 1 {
         return AxisStencil {
@@ -86,8 +89,10 @@ pub fn axis_stencil(interp: Interp, u: f64, cells: usize) -> AxisStencil {
         };
     }
     let last = (cells - 1) as f64;
-    // The cell at or below u, kept so that cell + 1 exists.
-    let below = (u.floor().max(0.0) as usize).min(cells - 2);
+    // The cell at or below u, kept so that cell + 1 exists. Truncation is the floor for
+    // u >= 0, and below zero the clamp wins anyway (`as` saturates, NaN becomes 0); it avoids
+    // a library call for `floor` on targets without SSE4.1.
+    let below = (u.max(0.0) as usize).min(cells - 2);
     let t = u - below as f64;
     let extrapolating = !(u >= 0.0 && u <= last);
     if interp == Interp::Linear || extrapolating {
@@ -100,6 +105,14 @@ pub fn axis_stencil(interp: Interp, u: f64, cells: usize) -> AxisStencil {
         };
     }
     let (w, s) = catmull_rom_weights(t);
+    if below >= 1 && below + 2 < cells {
+        return AxisStencil {
+            start: below - 1,
+            len: 4,
+            weight: w,
+            slope: s,
+        };
+    }
     let len = cells.min(4);
     let start = below.saturating_sub(1).min(cells - len);
     let mut stencil = AxisStencil {

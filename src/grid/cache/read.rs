@@ -13,6 +13,9 @@
 //! `interp`). A region whose samples all equal one value gets exactly that value, so empty
 //! space stays exactly empty.
 
+#[cfg(test)]
+mod tests;
+
 use super::{BRICK, Cache, MAX_WIDTH};
 use crate::grid::interp::{AxisStencil, BORDER_WEIGHT_BOUND, CUBIC_WEIGHT_BOUND, axis_stencil};
 use crate::sample::{Aabb, GridSource, Interp};
@@ -21,35 +24,114 @@ use glam::DVec3;
 /// The cells one point reads, resolved to brick storage.
 struct Stencil<'a> {
     axes: [AxisStencil; 3],
-    /// Per axis and stencil entry: 0 or 1, which of the two bricks along the axis holds it.
-    brick_step: [[usize; 4]; 3],
-    /// Per axis and stencil entry: the cell's position within its brick.
-    within: [[usize; 4]; 3],
+    /// Per axis and stencil entry: which of the (at most two) bricks along the axis holds the
+    /// cell, as an offset into `bricks` (steps 1, 2, 4 for x, y, z).
+    brick_of: [[usize; 4]; 3],
+    /// Per axis and stencil entry: the cell's offset within its brick (steps 1, 8, 64).
+    offset: [[usize; 4]; 3],
     /// The bricks, indexed `x + 2 (y + 2 z)` by brick step.
     bricks: [&'a [f32]; 8],
 }
 
+const BRICK_STEP: [usize; 3] = [1, 2, 4];
+const CELL_STEP: [usize; 3] = [1, BRICK, BRICK * BRICK];
+
 impl Cache {
     /// Continuous cell-index coordinates of a world point inside the domain box.
+    #[inline]
     fn index_coords(&self, p: DVec3) -> Option<DVec3> {
         let local = self.to_local * (p - self.domain.origin);
         let inside = local.cmpge(DVec3::ZERO).all() && local.cmple(self.domain.lengths).all();
         inside.then(|| local / self.domain.cell - DVec3::splat(0.5))
     }
 
-    fn stencil(&self, interp: Interp, u: DVec3) -> Stencil<'_> {
-        let axes = [0, 1, 2].map(|a| axis_stencil(interp, u[a], self.shape.cells[a]));
-        let mut brick_step = [[0; 4]; 3];
-        let mut within = [[0; 4]; 3];
+    /// Interpolates at index coordinates `u`: the value and, when `GRADIENT`, its derivatives
+    /// with respect to the index coordinates.
+    #[inline(always)]
+    fn read_point<const W: usize, const GRADIENT: bool>(
+        &self,
+        interp: Interp,
+        u: DVec3,
+        value: &mut [f64; W],
+        gradient: &mut [[f64; 3]; W],
+    ) {
+        let cells = self.shape.cells;
+        let axes = [
+            axis_stencil(interp, u.x, cells[0]),
+            axis_stencil(interp, u.y, cells[1]),
+            axis_stencil(interp, u.z, cells[2]),
+        ];
+        let first = axes.map(|axis| axis.start / BRICK);
+        let last = axes.map(|axis| (axis.start + axis.len - 1) / BRICK);
+        if first != last {
+            let stencil = self.stencil(axes);
+            return Cache::interpolate::<W, GRADIENT>(&stencil, value, gradient);
+        }
+        // Most stencils lie inside one brick: read it with fixed strides.
+        let brick = self.brick_values(self.shape.brick_index(first));
+        let base = axes.map(|axis| axis.start % BRICK);
+        let base = base[0] + BRICK * (base[1] + BRICK * base[2]);
+        match axes.map(|axis| axis.len) {
+            [2, 2, 2] => {
+                Cache::accumulate_within::<W, GRADIENT, 2>(&axes, brick, base, value, gradient)
+            }
+            [4, 4, 4] => {
+                Cache::accumulate_within::<W, GRADIENT, 4>(&axes, brick, base, value, gradient)
+            }
+            _ => Cache::accumulate_within::<W, GRADIENT, 0>(&axes, brick, base, value, gradient),
+        }
+    }
+
+    /// The stencil sum when every cell lies in `brick`, from local cell `base`; `LEN` as for
+    /// `accumulate`. Same terms in the same order as `accumulate`.
+    #[inline(always)]
+    fn accumulate_within<const W: usize, const GRADIENT: bool, const LEN: usize>(
+        axes: &[AxisStencil; 3],
+        brick: &[f32],
+        base: usize,
+        value: &mut [f64; W],
+        gradient: &mut [[f64; 3]; W],
+    ) {
+        let [sx, sy, sz] = axes;
+        let len = |axis: &AxisStencil| if LEN == 0 { axis.len } else { LEN };
+        for kz in 0..len(sz) {
+            for ky in 0..len(sy) {
+                let weight_yz = sy.weight[ky] * sz.weight[kz];
+                let slope_y = sy.slope[ky] * sz.weight[kz];
+                let slope_z = sy.weight[ky] * sz.slope[kz];
+                let row = (base + BRICK * (ky + BRICK * kz)) * W;
+                let row = &brick[row..row + len(sx) * W];
+                for kx in 0..len(sx) {
+                    let cell = &row[kx * W..kx * W + W];
+                    let weight = sx.weight[kx] * weight_yz;
+                    for c in 0..W {
+                        let sample = f64::from(cell[c]);
+                        value[c] += weight * sample;
+                        if GRADIENT {
+                            gradient[c][0] += sx.slope[kx] * weight_yz * sample;
+                            gradient[c][1] += sx.weight[kx] * slope_y * sample;
+                            gradient[c][2] += sx.weight[kx] * slope_z * sample;
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Resolves a stencil that spans bricks.
+    fn stencil(&self, axes: [AxisStencil; 3]) -> Stencil<'_> {
+        let mut brick_of = [[0; 4]; 3];
+        let mut offset = [[0; 4]; 3];
         let mut first = [0; 3];
         let mut span = [0; 3];
-        for (a, axis) in axes.iter().enumerate() {
+        for a in 0..3 {
+            let axis = &axes[a];
             first[a] = axis.start / BRICK;
             span[a] = (axis.start + axis.len - 1) / BRICK - first[a];
             for k in 0..axis.len {
                 let cell = axis.start + k;
-                brick_step[a][k] = cell / BRICK - first[a];
-                within[a][k] = cell % BRICK;
+                brick_of[a][k] = (cell / BRICK - first[a]) * BRICK_STEP[a];
+                offset[a][k] = (cell % BRICK) * CELL_STEP[a];
             }
         }
         let mut bricks = [&self.background_brick[..]; 8];
@@ -65,30 +147,50 @@ impl Cache {
         }
         Stencil {
             axes,
-            brick_step,
-            within,
+            brick_of,
+            offset,
             bricks,
         }
     }
 
     /// Accumulates the interpolated value and, when `GRADIENT`, its derivatives with respect
-    /// to the three index coordinates.
+    /// to the three index coordinates, over a stencil that spans bricks.
     fn interpolate<const W: usize, const GRADIENT: bool>(
         stencil: &Stencil<'_>,
         value: &mut [f64; W],
         gradient: &mut [[f64; 3]; W],
     ) {
+        // The common shapes get loops of fixed length, which the compiler unrolls; the sums
+        // are taken in the same order either way.
+        match [0, 1, 2].map(|a| stencil.axes[a].len) {
+            [2, 2, 2] => Cache::accumulate::<W, GRADIENT, 2>(stencil, value, gradient),
+            [4, 4, 4] => Cache::accumulate::<W, GRADIENT, 4>(stencil, value, gradient),
+            _ => Cache::accumulate::<W, GRADIENT, 0>(stencil, value, gradient),
+        }
+    }
+
+    /// The sum over the stencil; `LEN` is the stencil length on every axis, or 0 for lengths
+    /// read from the stencil.
+    #[inline(always)]
+    fn accumulate<const W: usize, const GRADIENT: bool, const LEN: usize>(
+        stencil: &Stencil<'_>,
+        value: &mut [f64; W],
+        gradient: &mut [[f64; 3]; W],
+    ) {
         let [sx, sy, sz] = &stencil.axes;
-        for kz in 0..sz.len {
-            for ky in 0..sy.len {
+        let len = |axis: &AxisStencil| if LEN == 0 { axis.len } else { LEN };
+        for kz in 0..len(sz) {
+            let brick_z = stencil.brick_of[2][kz];
+            let offset_z = stencil.offset[2][kz];
+            for ky in 0..len(sy) {
                 let weight_yz = sy.weight[ky] * sz.weight[kz];
                 let slope_y = sy.slope[ky] * sz.weight[kz];
                 let slope_z = sy.weight[ky] * sz.slope[kz];
-                let brick_yz = 2 * (stencil.brick_step[1][ky] + 2 * stencil.brick_step[2][kz]);
-                let within_yz = BRICK * (stencil.within[1][ky] + BRICK * stencil.within[2][kz]);
-                for kx in 0..sx.len {
-                    let brick = stencil.bricks[stencil.brick_step[0][kx] + brick_yz];
-                    let at = (stencil.within[0][kx] + within_yz) * W;
+                let brick_yz = brick_z + stencil.brick_of[1][ky];
+                let offset_yz = offset_z + stencil.offset[1][ky];
+                for kx in 0..len(sx) {
+                    let brick = stencil.bricks[brick_yz + stencil.brick_of[0][kx]];
+                    let at = (offset_yz + stencil.offset[0][kx]) * W;
                     let cell = &brick[at..at + W];
                     let weight = sx.weight[kx] * weight_yz;
                     for c in 0..W {
@@ -118,10 +220,7 @@ impl Cache {
         for i in 0..n {
             let mut value = [0.0; W];
             match self.index_coords(DVec3::new(xs[i], ys[i], zs[i])) {
-                Some(u) => {
-                    let stencil = self.stencil(interp, u);
-                    Cache::interpolate::<W, false>(&stencil, &mut value, &mut unused);
-                }
+                Some(u) => self.read_point::<W, false>(interp, u, &mut value, &mut unused),
                 None => value.copy_from_slice(&self.background),
             }
             for c in 0..W {
@@ -147,8 +246,7 @@ impl Cache {
             let mut value = [0.0; W];
             let mut gradient = [[0.0; 3]; W];
             if let Some(u) = self.index_coords(DVec3::new(xs[i], ys[i], zs[i])) {
-                let stencil = self.stencil(interp, u);
-                Cache::interpolate::<W, true>(&stencil, &mut value, &mut gradient);
+                self.read_point::<W, true>(interp, u, &mut value, &mut gradient);
             }
             for (c, g) in gradient.iter().enumerate() {
                 let world = rotation * (DVec3::from_array(*g) * inverse_cell);

@@ -1,238 +1,9 @@
+use super::test_support::*;
 use super::*;
 use crate::grid::domain::memory_limit;
 use crate::sample::{FnField, GridSource, Interp};
+use rayon::prelude::*;
 use std::sync::Weak;
-
-fn domain(origin: DVec3, lengths: DVec3, orientation: DVec3, cell: f64) -> Domain {
-    Domain::with_cells(origin, lengths, orientation, cell, cell).unwrap()
-}
-
-fn scalar_cache(domain: Domain, f: impl Fn(DVec3) -> f64 + Send + Sync + 'static) -> Cache {
-    let field = FnField::new(1, move |p, out: &mut [f64]| out[0] = f(p));
-    Cache::from_field(domain, 1, Arc::new(field), vec![0.0], "test".into()).unwrap()
-}
-
-/// Deterministic points spread over a box (a 3D additive recurrence).
-fn points_in(lo: DVec3, hi: DVec3, count: usize) -> Vec<DVec3> {
-    let step = DVec3::new(0.754_877_666, 0.569_840_291, 0.430_159_709);
-    (0..count)
-        .map(|n| {
-            let t = (step * (n as f64 + 0.5)).fract();
-            lo + (hi - lo) * t
-        })
-        .collect()
-}
-
-fn sample(cache: &Cache, interp: Interp, points: &[DVec3]) -> Vec<f64> {
-    let xs: Vec<f64> = points.iter().map(|p| p.x).collect();
-    let ys: Vec<f64> = points.iter().map(|p| p.y).collect();
-    let zs: Vec<f64> = points.iter().map(|p| p.z).collect();
-    let mut out = vec![0.0; points.len() * cache.width()];
-    cache.sample(interp, &xs, &ys, &zs, &mut out);
-    out
-}
-
-fn gradient(cache: &Cache, interp: Interp, points: &[DVec3]) -> Vec<f64> {
-    let xs: Vec<f64> = points.iter().map(|p| p.x).collect();
-    let ys: Vec<f64> = points.iter().map(|p| p.y).collect();
-    let zs: Vec<f64> = points.iter().map(|p| p.z).collect();
-    let mut out = vec![0.0; points.len() * cache.width() * 3];
-    cache.sample_gradient(interp, &xs, &ys, &zs, &mut out);
-    out
-}
-
-/// Points inside an oriented domain, from its local frame.
-fn points_inside(d: &Domain, count: usize) -> Vec<DVec3> {
-    points_in(DVec3::ZERO, d.lengths, count)
-        .into_iter()
-        .map(|local| d.local_to_world(local))
-        .collect()
-}
-
-fn all_cells(cache: &Cache) -> Vec<u32> {
-    let [nx, ny, nz] = cache.resolution();
-    let mut bits = Vec::new();
-    for k in 0..nz {
-        for j in 0..ny {
-            for i in 0..nx {
-                let value = cache.value_at_cell(i, j, k).unwrap();
-                bits.extend(value.iter().map(|v| v.to_bits()));
-            }
-        }
-    }
-    bits
-}
-
-#[test]
-fn linear_field_is_reproduced_in_a_rotated_domain() {
-    let d = domain(
-        DVec3::new(0.3, -0.7, 0.2),
-        DVec3::new(1.3, 0.9, 1.1),
-        DVec3::new(0.4, -0.3, 0.8),
-        0.1,
-    );
-    let slope = DVec3::new(2.0, -3.0, 0.5);
-    let line = move |p: DVec3| 1.0 + slope.dot(p);
-    let cache = scalar_cache(d.clone(), line);
-    // Include the domain's corners, where both rules extrapolate over the half-cell border.
-    let mut points = points_inside(&d, 400);
-    points.extend(
-        d.corners()
-            .iter()
-            .map(|&c| c + (d.bounds().center() - c) * 1e-9),
-    );
-    for interp in [Interp::Linear, Interp::Cubic] {
-        let values = sample(&cache, interp, &points);
-        let gradients = gradient(&cache, interp, &points);
-        let n = points.len();
-        for (i, p) in points.iter().enumerate() {
-            // f32 storage of values of size ~5: about 5e-7 per sample.
-            assert!((values[i] - line(*p)).abs() < 2e-6, "{interp:?} at {p}");
-            let g = DVec3::new(gradients[i], gradients[n + i], gradients[2 * n + i]);
-            // Sample rounding divided by the cell size.
-            assert!(
-                (g - slope).length() < 1e-4,
-                "{interp:?} gradient {g} at {p}"
-            );
-        }
-    }
-}
-
-#[test]
-fn linear_vector_field_is_reproduced_componentwise() {
-    let d = domain(
-        DVec3::splat(-1.0),
-        DVec3::new(2.0, 1.5, 1.0),
-        DVec3::new(0.0, 0.0, 0.6),
-        0.25,
-    );
-    let field = FnField::new(3, |p: DVec3, out: &mut [f64]| {
-        out[0] = p.x - 2.0 * p.z;
-        out[1] = 0.5 + p.y;
-        out[2] = 3.0 * p.x + p.y + p.z;
-    });
-    let cache = Cache::from_field(d.clone(), 3, Arc::new(field), vec![0.0; 3], "v".into()).unwrap();
-    let points = points_inside(&d, 200);
-    let n = points.len();
-    for interp in [Interp::Linear, Interp::Cubic] {
-        let values = sample(&cache, interp, &points);
-        let gradients = gradient(&cache, interp, &points);
-        let jacobian = [[1.0, 0.0, -2.0], [0.0, 1.0, 0.0], [3.0, 1.0, 1.0]];
-        for (i, p) in points.iter().enumerate() {
-            let expected = [p.x - 2.0 * p.z, 0.5 + p.y, 3.0 * p.x + p.y + p.z];
-            for c in 0..3 {
-                assert!((values[c * n + i] - expected[c]).abs() < 2e-6);
-                for j in 0..3 {
-                    let g = gradients[(c * 3 + j) * n + i];
-                    assert!(
-                        (g - jacobian[c][j]).abs() < 1e-4,
-                        "{interp:?} d{c}/dx{j} = {g}"
-                    );
-                }
-            }
-        }
-    }
-}
-
-/// Largest error over fixed interior points of caches at cell sizes h, h/2, h/4, and the
-/// orders measured between successive halvings.
-fn measured_orders(interp: Interp) -> [f64; 2] {
-    let wave =
-        |p: DVec3| (3.0 * p.x + 0.4).sin() * (2.0 * p.y + 1.1).sin() * (2.5 * p.z - 0.3).cos();
-    let points = points_in(DVec3::splat(0.3), DVec3::splat(0.7), 150);
-    let errors: Vec<f64> = [16.0, 32.0, 64.0]
-        .iter()
-        .map(|cells| {
-            let d = domain(DVec3::ZERO, DVec3::ONE, DVec3::ZERO, 1.0 / cells);
-            let cache = scalar_cache(d, wave);
-            let values = sample(&cache, interp, &points);
-            points
-                .iter()
-                .zip(values)
-                .map(|(p, v)| (v - wave(*p)).abs())
-                .fold(0.0, f64::max)
-        })
-        .collect();
-    [
-        (errors[0] / errors[1]).log2(),
-        (errors[1] / errors[2]).log2(),
-    ]
-}
-
-#[test]
-fn cubic_reads_converge_at_third_order() {
-    for order in measured_orders(Interp::Cubic) {
-        assert!((2.6..=3.4).contains(&order), "cubic order {order}");
-    }
-}
-
-#[test]
-fn linear_reads_converge_at_second_order() {
-    for order in measured_orders(Interp::Linear) {
-        assert!((1.8..=2.2).contains(&order), "linear order {order}");
-    }
-}
-
-#[test]
-fn one_query_fills_only_its_stencil_bricks() {
-    // 32 cells of size 1 per axis: 4 bricks per axis; index u = world - 0.5.
-    for (interp, reach) in [(Interp::Linear, (0, 1)), (Interp::Cubic, (1, 2))] {
-        for u in [
-            DVec3::new(7.3, 7.6, 8.2),
-            DVec3::splat(3.5),
-            DVec3::new(0.1, 30.7, 15.9),
-        ] {
-            let cache = scalar_cache(
-                domain(DVec3::ZERO, DVec3::splat(32.0), DVec3::ZERO, 1.0),
-                |p| p.x,
-            );
-            sample(&cache, interp, &[u + DVec3::splat(0.5)]);
-            // Cells floor(u) - reach.0 ..= floor(u) + reach.1, clipped to the grid.
-            let bricks = |a: usize| {
-                let low = (u[a].floor() as i64 - reach.0).max(0) as usize / BRICK;
-                let high = (u[a].floor() as i64 + reach.1).min(31) as usize / BRICK;
-                low..=high
-            };
-            let mut expected = 0;
-            for bz in 0..4 {
-                for by in 0..4 {
-                    for bx in 0..4 {
-                        let wanted = bricks(0).contains(&bx)
-                            && bricks(1).contains(&by)
-                            && bricks(2).contains(&bz);
-                        expected += wanted as usize;
-                        assert_eq!(cache.brick_resolved([bx, by, bz]), wanted, "{interp:?} {u}");
-                    }
-                }
-            }
-            assert_eq!(cache.bricks_filled(), expected);
-            if interp == Interp::Linear {
-                assert!(cache.bricks_filled() <= 8);
-            }
-        }
-    }
-    let cache = scalar_cache(
-        domain(DVec3::ZERO, DVec3::splat(32.0), DVec3::ZERO, 1.0),
-        |p| p.x,
-    );
-    sample(&cache, Interp::Linear, &[DVec3::new(7.8, 8.1, 8.7)]);
-    assert_eq!(cache.bricks_filled(), 4);
-}
-
-fn busy_field(p: DVec3) -> f64 {
-    (p.x * 7.1).sin() * (p.y * 5.3 + p.z).cos() + (p - DVec3::new(0.2, 0.1, -0.3)).length()
-}
-
-fn busy_domain() -> Domain {
-    Domain::with_cells(
-        DVec3::new(-1.0, -0.8, -0.6),
-        DVec3::new(2.0, 1.8, 1.4),
-        DVec3::new(0.1, 0.2, -0.3),
-        0.05,
-        0.05,
-    )
-    .unwrap()
-}
 
 #[test]
 fn concurrent_lazy_queries_equal_an_eager_fill() {
@@ -307,105 +78,6 @@ fn cells_hold_the_field_at_cell_centres() {
         brick.value([7, 3, 3]),
         cache.value_at_cell(39, 35, 27).unwrap()
     );
-}
-
-#[test]
-fn outside_the_domain_reads_the_background() {
-    let d = domain(DVec3::ZERO, DVec3::ONE, DVec3::new(0.0, 0.5, 0.0), 0.125);
-    let field = FnField::new(3, |p: DVec3, out: &mut [f64]| {
-        out[0] = p.x;
-        out[1] = p.y;
-        out[2] = p.z;
-    });
-    let background = vec![0.25, -1.5, 7.0];
-    let cache = Cache::from_field(
-        d.clone(),
-        3,
-        Arc::new(field),
-        background.clone(),
-        "b".into(),
-    )
-    .unwrap();
-    let outside = [
-        DVec3::splat(-0.01),
-        DVec3::new(0.5, 1.2, 0.5),
-        DVec3::new(40.0, 0.0, 0.0),
-    ];
-    assert!(outside.iter().all(|&p| !d.contains(p)));
-    for interp in [Interp::Linear, Interp::Cubic] {
-        let values = sample(&cache, interp, &outside);
-        let gradients = gradient(&cache, interp, &outside);
-        for i in 0..outside.len() {
-            for c in 0..3 {
-                assert_eq!(values[c * 3 + i], background[c]);
-            }
-        }
-        assert!(gradients.iter().all(|&g| g == 0.0));
-    }
-    assert_eq!(cache.bricks_filled(), 0);
-    assert_eq!(GridSource::background(&cache), background);
-    assert_eq!(cache.bounds(), d.bounds());
-    assert_eq!(cache.cell_size(), DVec3::splat(0.125));
-}
-
-/// A ball of density with an exact interval form, as the field engine would provide.
-struct Ball {
-    centre: DVec3,
-    radius: f64,
-}
-
-impl Ball {
-    fn density(&self, p: DVec3) -> f64 {
-        (1.0 - (p - self.centre).length() / self.radius).max(0.0)
-    }
-}
-
-struct BallEval<'a>(&'a Ball);
-
-impl BlockEval for BallEval<'_> {
-    fn eval_f32(&mut self, xs: &[f64], ys: &[f64], zs: &[f64], out: &mut [f32]) {
-        for i in 0..xs.len() {
-            out[i] = self.0.density(DVec3::new(xs[i], ys[i], zs[i])) as f32;
-        }
-    }
-
-    fn eval_f64(&mut self, xs: &[f64], ys: &[f64], zs: &[f64], out: &mut [f64]) {
-        for i in 0..xs.len() {
-            out[i] = self.0.density(DVec3::new(xs[i], ys[i], zs[i]));
-        }
-    }
-}
-
-impl FieldSampler for Ball {
-    fn width(&self) -> usize {
-        1
-    }
-
-    fn evaluator(&self) -> Box<dyn BlockEval + '_> {
-        Box::new(BallEval(self))
-    }
-
-    fn bounds(&self) -> Option<Aabb> {
-        Some(Aabb::new(
-            self.centre - self.radius,
-            self.centre + self.radius,
-        ))
-    }
-
-    fn range(&self, region: &Aabb) -> Vec<(f64, f64)> {
-        let nearest = self.centre.clamp(region.min, region.max);
-        let farthest = DVec3::select(
-            (self.centre - region.min).cmpgt(region.max - self.centre),
-            region.min,
-            region.max,
-        );
-        let near = (nearest - self.centre).length();
-        let far = (farthest - self.centre).length();
-        vec![(
-            (1.0 - far / self.radius).max(0.0),
-            (1.0 - near / self.radius).max(0.0),
-        )]
-    }
 }
 
 #[test]
@@ -503,69 +175,6 @@ fn the_source_is_released_once_every_brick_is_resolved() {
 }
 
 #[test]
-fn range_contains_every_interpolated_value() {
-    // Rough data: alternating signs make cubic overshoot and border extrapolation visible.
-    let d = domain(
-        DVec3::ZERO,
-        DVec3::new(2.0, 2.0, 1.0),
-        DVec3::new(0.0, 0.3, 0.0),
-        0.125,
-    );
-    let rough = |p: DVec3| ((p.x * 40.0).sin() * (p.y * 33.0).cos() + p.z).round();
-    let cache = scalar_cache(d.clone(), rough);
-    let regions = [
-        Aabb::new(DVec3::new(0.3, 0.4, 0.2), DVec3::new(0.6, 0.5, 0.4)),
-        Aabb::new(DVec3::new(-0.1, -0.1, -0.1), DVec3::new(0.2, 0.3, 0.3)),
-        Aabb::new(DVec3::new(1.0, 0.5, -0.6), DVec3::new(2.5, 2.5, 1.5)),
-    ];
-    for region in regions {
-        let range = cache.range(&region)[0];
-        for interp in [Interp::Linear, Interp::Cubic] {
-            let points = points_in(region.min, region.max, 3000);
-            for v in sample(&cache, interp, &points) {
-                assert!(range.0 <= v && v <= range.1, "{v} outside {range:?}");
-            }
-        }
-    }
-    // A region beyond the domain reads only the background.
-    let far = Aabb::new(DVec3::splat(10.0), DVec3::splat(11.0));
-    assert_eq!(cache.range(&far), vec![(0.0, 0.0)]);
-}
-
-#[test]
-fn range_of_empty_space_is_exactly_empty() {
-    let d = domain(
-        DVec3::splat(-1.0),
-        DVec3::splat(2.0),
-        DVec3::ZERO,
-        1.0 / 32.0,
-    );
-    let ball = Ball {
-        centre: DVec3::ZERO,
-        radius: 0.3,
-    };
-    let field = FnField::new(1, move |p: DVec3, out: &mut [f64]| out[0] = ball.density(p));
-    let cache = Cache::from_field(d, 1, Arc::new(field), vec![0.0], "e".into()).unwrap();
-    let corner = Aabb::new(DVec3::splat(0.5), DVec3::splat(0.9));
-    assert_eq!(cache.range(&corner), vec![(0.0, 0.0)]);
-    let centre = cache.range(&Aabb::new(DVec3::splat(-0.1), DVec3::splat(0.1)))[0];
-    assert!(centre.0 < 0.7 && centre.1 >= 1.0 - 0.5 / 32.0 * 3f64.sqrt() / 0.3);
-    // Leaving the domain with a non-zero background brings the background in.
-    let d = domain(DVec3::ZERO, DVec3::ONE, DVec3::ZERO, 0.25);
-    let field = FnField::new(1, |_p: DVec3, out: &mut [f64]| out[0] = 2.0);
-    let cache = Cache::from_field(d, 1, Arc::new(field), vec![-3.0], "e".into()).unwrap();
-    assert_eq!(
-        cache.range(&Aabb::new(DVec3::splat(0.1), DVec3::splat(0.9))),
-        vec![(2.0, 2.0)]
-    );
-    assert_eq!(
-        cache.range(&Aabb::new(DVec3::splat(0.5), DVec3::splat(1.5))),
-        vec![(-3.0, 2.0)]
-    );
-    assert_eq!(cache.range(&Aabb::everything()), vec![(-3.0, 2.0)]);
-}
-
-#[test]
 fn dense_and_sparse_data_read_back() {
     let d = domain(DVec3::ZERO, DVec3::new(1.0, 0.75, 0.5), DVec3::ZERO, 0.0625);
     let [nx, ny, nz] = d.resolution.unwrap();
@@ -624,7 +233,11 @@ fn bad_layouts_are_failures() {
     assert!(error.help.is_some());
     let d = domain(DVec3::ZERO, DVec3::ONE, DVec3::ZERO, 0.25);
     assert!(Cache::from_field(d.clone(), 2, field(), vec![0.0; 2], "x".into()).is_err());
-    assert!(Cache::from_field(d.clone(), 3, field(), vec![0.0; 3], "x".into()).is_err());
+    let mismatch = Cache::from_field(d.clone(), 3, field(), vec![0.0; 3], "x".into()).unwrap_err();
+    assert_eq!(
+        mismatch.message,
+        "cannot write a scalarfield into a vectorcache"
+    );
     assert!(Cache::from_field(d.clone(), 1, field(), vec![0.0; 3], "x".into()).is_err());
     assert!(Cache::from_field(d.clone(), 1, field(), vec![f64::NAN], "x".into()).is_err());
     let short = Cache::from_dense(d.clone(), 1, vec![vec![0.0; 63]], vec![0.0]).unwrap_err();
@@ -677,4 +290,18 @@ fn states_have_distinct_identities_and_report_to_the_profile() {
         .find(|e| e.label == label)
         .unwrap();
     assert_eq!(row.bytes_live, 0);
+}
+
+#[test]
+fn fills_evaluate_exactly_at_cell_centres() {
+    // The field answers 1 only where its position is bit for bit a cell centre.
+    let d = busy_domain();
+    let probe = d.clone();
+    let cache = scalar_cache(d, move |p| {
+        let index = probe.world_to_index(p).round();
+        let centre = probe.cell_center(index.x as usize, index.y as usize, index.z as usize);
+        if centre == p { 1.0 } else { 0.0 }
+    });
+    cache.fill_all();
+    assert!(all_cells(&cache).iter().all(|&bits| bits == 1f32.to_bits()));
 }
