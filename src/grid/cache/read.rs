@@ -3,9 +3,12 @@
 //! A point is mapped to the domain's continuous cell-index coordinates, `interp` builds one
 //! stencil per axis, and the stencil's cells are read from at most 2×2×2 bricks (a stencil of
 //! four cells never spans more than two bricks along an axis), each filled on first touch.
-//! The one key decision: the per-point work is generic over the number of components, so the
-//! inner loops have fixed trip counts and no per-point dispatch; outside the domain box a
-//! point reads the background and a zero gradient.
+//! The one key decision: the per-point work is generic over the number of components and, for
+//! the common stencil shapes, over the stencil length, so the inner loops have fixed trip
+//! counts and no per-point dispatch; and a stencil that lies inside one brick (most linear
+//! ones, about a quarter of cubic ones) is read from that brick with fixed strides, without
+//! the table of bricks. Outside the domain box a point reads the background and a zero
+//! gradient.
 //!
 //! `range` reports what the *interpolant* can reach, not only the stored samples: cubic weights
 //! can be negative and the border extrapolates, so the samples' range is widened around its

@@ -261,3 +261,40 @@ fn range_of_empty_space_is_exactly_empty() {
     );
     assert_eq!(cache.range(&Aabb::everything()), vec![(-3.0, 2.0)]);
 }
+
+#[test]
+fn linear_matrix_field_is_reproduced_with_its_jacobian_layout() {
+    let d = domain(
+        DVec3::new(0.5, 0.0, -1.0),
+        DVec3::splat(1.0),
+        DVec3::new(0.3, 0.3, 0.0),
+        0.125,
+    );
+    // Component c is c + b_c . p with b_c = (c, 1 - c, 0.5 c).
+    let slope = |c: usize| DVec3::new(c as f64, 1.0 - c as f64, 0.5 * c as f64);
+    let field = FnField::new(9, move |p: DVec3, out: &mut [f64]| {
+        for (c, v) in out.iter_mut().enumerate() {
+            *v = c as f64 + slope(c).dot(p);
+        }
+    });
+    let cache = Cache::from_field(d.clone(), 9, Arc::new(field), vec![0.0; 9], "m".into()).unwrap();
+    let points = points_inside(&d, 100);
+    let n = points.len();
+    for interp in [Interp::Linear, Interp::Cubic] {
+        let values = sample(&cache, interp, &points);
+        let gradients = gradient(&cache, interp, &points);
+        for (i, p) in points.iter().enumerate() {
+            for c in 0..9 {
+                let expected = c as f64 + slope(c).dot(*p);
+                assert!((values[c * n + i] - expected).abs() < 1e-5);
+                for j in 0..3 {
+                    let g = gradients[(c * 3 + j) * n + i];
+                    assert!(
+                        (g - slope(c)[j]).abs() < 1e-3,
+                        "{interp:?} d{c}/dx{j} = {g}"
+                    );
+                }
+            }
+        }
+    }
+}
