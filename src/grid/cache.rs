@@ -293,6 +293,20 @@ impl Cache {
         })
     }
 
+    /// Counts a cache made from data (a file, a solve) in the profile under `kind` and its
+    /// label, with its bricks and memory. Caches made by `from_field` are counted already.
+    pub fn with_profile(mut self, kind: &str) -> Cache {
+        if self.profile.is_some() {
+            return self;
+        }
+        let stats = profile::register(kind, &self.label);
+        stats.add_instance(self.bricks.len() as u64);
+        stats.add_resolved(self.bricks_filled() as u64, self.bricks_skipped() as u64);
+        stats.add_work(0, self.bytes());
+        self.profile = Some(stats);
+        self
+    }
+
     /// The same cache under another label (for caches read from files).
     pub fn with_label(mut self, label: impl Into<String>) -> Cache {
         self.label = label.into();

@@ -39,6 +39,13 @@ impl GridStats {
         self.add_work(nanos, bytes);
     }
 
+    /// Bricks that arrived already resolved (a grid made from data): `filled` with values,
+    /// `skipped` known to be background.
+    pub fn add_resolved(&self, filled: u64, skipped: u64) {
+        self.bricks_filled.fetch_add(filled, Ordering::Relaxed);
+        self.bricks_skipped.fetch_add(skipped, Ordering::Relaxed);
+    }
+
     /// One brick was found empty without computing it, taking `nanos`.
     pub fn add_skipped(&self, nanos: u64) {
         self.bricks_skipped.fetch_add(1, Ordering::Relaxed);

@@ -212,8 +212,23 @@ fn dense_and_sparse_data_read_back() {
     assert_eq!(sparse.value_at_cell(0, 0, 0).unwrap(), &[-1.0, -2.0, -3.0]);
     assert_eq!(sparse.value_at_cell(15, 11, 7).unwrap(), &[1.0, 2.0, 3.0]);
     assert_eq!(sparse.label(), "loaded");
+    let sparse = sparse
+        .with_label("cache tests: loaded.vdb")
+        .with_profile("cacheload");
+    let row = || {
+        profile::report()
+            .into_iter()
+            .find(|e| e.label == "cache tests: loaded.vdb")
+            .unwrap()
+    };
+    assert_eq!(row().kind, "cacheload");
+    assert_eq!(row().bricks_filled, 2);
+    assert_eq!(row().bricks_skipped as usize, sparse.bricks_total() - 2);
+    assert_eq!(row().bytes_live, sparse.bytes());
     let stored: Vec<[usize; 3]> = sparse.cells().map(|(cell, _)| cell).collect();
     assert_eq!(stored.len(), 2 * BRICK_CELLS);
+    drop(sparse);
+    assert_eq!(row().bytes_live, 0);
 }
 
 impl SparseBuilder {
