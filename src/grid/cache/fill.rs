@@ -14,13 +14,11 @@ use rayon::prelude::*;
 use std::sync::atomic::Ordering;
 use std::time::Instant;
 
-/// Per-thread space for brick fills: positions of a brick's cell centres and one block of
-/// evaluated values.
+/// Per-thread space for brick fills: positions of a brick's cell centres and their values.
 struct FillScratch {
     xs: Vec<f64>,
     ys: Vec<f64>,
     zs: Vec<f64>,
-    locals: Vec<u16>,
     out: Vec<f32>,
 }
 
@@ -30,8 +28,7 @@ impl FillScratch {
             xs: vec![0.0; BRICK_CELLS],
             ys: vec![0.0; BRICK_CELLS],
             zs: vec![0.0; BRICK_CELLS],
-            locals: vec![0; BRICK_CELLS],
-            out: vec![0.0; BLOCK * MAX_WIDTH],
+            out: vec![0.0; BRICK_CELLS * MAX_WIDTH],
         }
     }
 }
@@ -112,54 +109,62 @@ impl Cache {
             return brick;
         }
 
-        let FillScratch {
-            xs,
-            ys,
-            zs,
-            locals,
-            out,
-        } = scratch;
+        let FillScratch { xs, ys, zs, out } = scratch;
         // `Domain::cell_center` computes origin + ((X lx + Y ly) + Z lz) with the rotation's
         // columns X, Y, Z; each product depends on one index, so taking them once per index
         // and adding them in the same order gives the same positions bit for bit, cheaper.
         let rotation = self.domain.rotation;
+        let origin = self.domain.origin;
         let cell = self.domain.cell;
         let along = |axis: usize, column: DVec3, i: usize| column * ((i as f64 + 0.5) * cell[axis]);
+        let row_cells = hi[0] - lo[0];
         let mut row = [DVec3::ZERO; BRICK];
-        for x in lo[0]..hi[0] {
-            row[x - lo[0]] = along(0, rotation.x_axis, x);
+        for (x, product) in (lo[0]..hi[0]).zip(&mut row) {
+            *product = along(0, rotation.x_axis, x);
         }
         let mut count = 0;
         for z in lo[2]..hi[2] {
             let cz = along(2, rotation.z_axis, z);
             for y in lo[1]..hi[1] {
                 let cy = along(1, rotation.y_axis, y);
-                for x in lo[0]..hi[0] {
-                    let p = self.domain.origin + (row[x - lo[0]] + cy + cz);
-                    xs[count] = p.x;
-                    ys[count] = p.y;
-                    zs[count] = p.z;
-                    locals[count] = local_index(x - lo[0], y - lo[1], z - lo[2]) as u16;
-                    count += 1;
+                let end = count + row_cells;
+                let positions = xs[count..end]
+                    .iter_mut()
+                    .zip(&mut ys[count..end])
+                    .zip(&mut zs[count..end]);
+                for (((px, py), pz), cx) in positions.zip(&row[..row_cells]) {
+                    let p = origin + (*cx + cy + cz);
+                    (*px, *py, *pz) = (p.x, p.y, p.z);
                 }
+                count = end;
             }
         }
         let width = self.width;
-        let mut values = self.background_brick.clone();
         for block_start in (0..count).step_by(BLOCK) {
             let n = BLOCK.min(count - block_start);
             let block = block_start..block_start + n;
-            let out = &mut out[..n * width];
+            let out = &mut out[block_start * width..(block_start + n) * width];
             evaluator.eval_f32(&xs[block.clone()], &ys[block.clone()], &zs[block], out);
-            if count == BRICK_CELLS && width == 1 {
-                // A whole scalar brick: evaluation order is storage order.
-                values[block_start..block_start + n].copy_from_slice(out);
-                continue;
-            }
-            for i in 0..n {
-                let at = locals[block_start + i] as usize * width;
-                for c in 0..width {
-                    values[at + c] = out[c * n + i];
+        }
+        // Each block came back component-major; storage is cell-major in 8×8×8 order.
+        let mut values = self.background_brick.clone();
+        let mut point = 0;
+        for z in 0..hi[2] - lo[2] {
+            for y in 0..hi[1] - lo[1] {
+                let at = local_index(0, y, z) * width;
+                if width == 1 {
+                    values[at..at + row_cells].copy_from_slice(&out[point..point + row_cells]);
+                    point += row_cells;
+                    continue;
+                }
+                for x in 0..row_cells {
+                    let block_start = point / BLOCK * BLOCK;
+                    let n = BLOCK.min(count - block_start);
+                    let block = &out[block_start * width..(block_start + n) * width];
+                    for c in 0..width {
+                        values[at + x * width + c] = block[c * n + point - block_start];
+                    }
+                    point += 1;
                 }
             }
         }
@@ -186,32 +191,20 @@ impl Cache {
     fn store_computed(&self, index: usize, values: Box<[f32]>) -> Brick {
         let width = self.width;
         let (lo, hi) = self.shape.brick_cells(index);
-        let row_cells = hi[0] - lo[0];
-        let rows = || {
-            (lo[2]..hi[2]).flat_map(move |z| {
-                (lo[1]..hi[1]).map(move |y| (y, z, local_index(0, y - lo[1], z - lo[2]) * width))
-            })
+        let size = [0, 1, 2].map(|a| hi[a] - lo[a]);
+        let Scan {
+            mut range,
+            has_nan,
+            all_background,
+        } = match width {
+            1 => scan::<1>(&values, size, &self.background_brick),
+            3 => scan::<3>(&values, size, &self.background_brick),
+            _ => scan::<MAX_WIDTH>(&values, size, &self.background_brick),
         };
-        let mut range = [(f32::INFINITY, f32::NEG_INFINITY); MAX_WIDTH];
-        let mut has_nan = [false; MAX_WIDTH];
-        // Padding cells of partial bricks hold the background already.
-        let mut all_background = true;
-        for (_, _, at) in rows() {
-            for sample in values[at..at + row_cells * width].chunks_exact(width) {
-                for c in 0..width {
-                    let v = sample[c];
-                    let (low, high) = &mut range[c];
-                    *low = low.min(v);
-                    *high = high.max(v);
-                    has_nan[c] |= v.is_nan();
-                    all_background &= v.to_bits() == self.background_brick[c].to_bits();
-                }
-            }
-        }
         let all_finite =
             (0..width).all(|c| !has_nan[c] && range[c].0.is_finite() && range[c].1.is_finite());
         if !all_finite {
-            self.note_nonfinite(&values, rows(), lo[0], row_cells);
+            self.note_nonfinite(&values, lo, size);
         }
         for c in 0..width {
             if has_nan[c] {
@@ -230,23 +223,21 @@ impl Cache {
     }
 
     /// Counts a brick's non-finite values and keeps the lowest-numbered cell holding one.
-    fn note_nonfinite(
-        &self,
-        values: &[f32],
-        rows: impl Iterator<Item = (usize, usize, usize)>,
-        first_x: usize,
-        row_cells: usize,
-    ) {
+    /// The brick's cells start at cell `lo` and span `size`.
+    fn note_nonfinite(&self, values: &[f32], lo: [usize; 3], size: [usize; 3]) {
         let width = self.width;
         let mut count = 0u64;
         let mut first: Option<[usize; 3]> = None;
-        for (y, z, at) in rows {
-            let row = &values[at..at + row_cells * width];
-            for (x, sample) in row.chunks_exact(width).enumerate() {
-                let bad = sample.iter().filter(|v| !v.is_finite()).count() as u64;
-                if bad > 0 {
-                    count += bad;
-                    first.get_or_insert([first_x + x, y, z]);
+        for z in 0..size[2] {
+            for y in 0..size[1] {
+                let at = local_index(0, y, z) * width;
+                let row = &values[at..at + size[0] * width];
+                for (x, sample) in row.chunks_exact(width).enumerate() {
+                    let bad = sample.iter().filter(|v| !v.is_finite()).count() as u64;
+                    if bad > 0 {
+                        count += bad;
+                        first.get_or_insert([lo[0] + x, lo[1] + y, lo[2] + z]);
+                    }
                 }
             }
         }
@@ -268,4 +259,49 @@ impl Cache {
             drop(source);
         }
     }
+}
+
+/// What a pass over a brick's cells finds.
+struct Scan {
+    /// Smallest and largest non-NaN value per component.
+    range: [(f32, f32); MAX_WIDTH],
+    has_nan: [bool; MAX_WIDTH],
+    /// Does every cell equal the background, bit for bit?
+    all_background: bool,
+}
+
+/// Scans the cells of a brick whose cells span `size`, with `W` components each.
+fn scan<const W: usize>(values: &[f32], size: [usize; 3], background: &[f32]) -> Scan {
+    let mut low = [f32::INFINITY; W];
+    let mut high = [f32::NEG_INFINITY; W];
+    let mut nan = [false; W];
+    let mut differs = false;
+    let background: [u32; W] = std::array::from_fn(|c| background[c].to_bits());
+    for z in 0..size[2] {
+        for y in 0..size[1] {
+            let at = local_index(0, y, z) * W;
+            let (samples, _) = values[at..at + size[0] * W].as_chunks::<W>();
+            for sample in samples {
+                for c in 0..W {
+                    let v = sample[c];
+                    // Comparisons with NaN are false, so NaN stays out of the range (it is
+                    // noted apart); written as selects so the loop vectorises.
+                    low[c] = if v < low[c] { v } else { low[c] };
+                    high[c] = if v > high[c] { v } else { high[c] };
+                    nan[c] |= v.is_nan();
+                    differs |= v.to_bits() != background[c];
+                }
+            }
+        }
+    }
+    let mut scan = Scan {
+        range: [(f32::INFINITY, f32::NEG_INFINITY); MAX_WIDTH],
+        has_nan: [false; MAX_WIDTH],
+        all_background: !differs,
+    };
+    for c in 0..W {
+        scan.range[c] = (low[c], high[c]);
+        scan.has_nan[c] = nan[c];
+    }
+    scan
 }
