@@ -1,6 +1,6 @@
 //! Filling bricks: evaluating a field at a brick's cell centres, or finding it empty.
 //!
-//! The one key decision: a brick is one batch — its cell centres, in storage order, go to the
+//! The one key decision: a brick is one batch — its cell centres, row by row, go to the
 //! source's block evaluator in blocks of `sample::BLOCK` — and it is computed exactly once,
 //! inside its `OnceLock`, whether an eager `fill_all` or a lazy query got there first. So the
 //! stored values depend only on the brick, never on the order or the thread that filled it.

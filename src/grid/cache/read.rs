@@ -22,7 +22,7 @@ mod tests;
 use super::{BRICK, Cache, MAX_WIDTH};
 use crate::grid::interp::{AxisStencil, BORDER_WEIGHT_BOUND, CUBIC_WEIGHT_BOUND, axis_stencil};
 use crate::sample::{Aabb, GridSource, Interp};
-use glam::DVec3;
+use glam::{BVec3, DVec3};
 
 /// The cells one point reads, resolved to brick storage.
 struct Stencil<'a> {
@@ -269,23 +269,8 @@ impl Cache {
             let mut hi = DVec3::splat(f64::NEG_INFINITY);
             let mut leaves = false;
             for n in 0..8 {
-                let corner = DVec3::new(
-                    if n & 1 != 0 {
-                        region.max.x
-                    } else {
-                        region.min.x
-                    },
-                    if n & 2 != 0 {
-                        region.max.y
-                    } else {
-                        region.min.y
-                    },
-                    if n & 4 != 0 {
-                        region.max.z
-                    } else {
-                        region.min.z
-                    },
-                );
+                let pick = BVec3::new(n & 1 != 0, n & 2 != 0, n & 4 != 0);
+                let corner = DVec3::select(pick, region.max, region.min);
                 leaves |= self.index_coords(corner).is_none();
                 let u = self.to_local * (corner - self.domain.origin) / self.domain.cell
                     - DVec3::splat(0.5);
