@@ -16,8 +16,8 @@ use glam::DVec3;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Shadows {
     /// Precomputed once per light into a grid over the marched box and read trilinearly.
-    /// `cell_size: None` takes twice the step, with at most 256 cells along the box's longest
-    /// side (and 96 for point lights, whose default method marches from every cell).
+    /// `cell_size: None` takes twice the step, with at most 192 cells along the box's longest
+    /// side (96 where the light is marched from every cell, as for a point light inside the box).
     Cache {
         cell_size: Option<f64>,
         method: TransmissivityMethod,
@@ -36,10 +36,11 @@ impl Default for Shadows {
     }
 }
 
-/// Contribution-driven step control (Svea's scheme): a step whose contribution to the pixel
-/// exceeds `tolerance` is discarded and retried at half the length (down to `min_step`); after a
-/// step contributing less than a quarter of `tolerance` the next one is twice as long (up to
-/// `max_step`).
+/// Contribution-driven step control (Svea's scheme, see `adaptive`): a step whose contribution
+/// to the pixel exceeds `tolerance` is discarded and retried at half the length (down to
+/// `min_step`); after a step contributing less than a quarter of `tolerance` the next one is
+/// twice as long (up to `max_step`). A step samples only its midpoint, so `max_step` must still
+/// resolve the thinnest feature of the density.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Adaptive {
     pub min_step: f64,
@@ -49,11 +50,13 @@ pub struct Adaptive {
 }
 
 impl Adaptive {
-    /// Steps from a quarter to four times `step`, tolerance 1/256 (one 8-bit level).
+    /// What `adaptive = true` means: `step` is the longest step, refined down to `step / 8`
+    /// where a step would change the pixel by more than 1/256 (one 8-bit level). Never coarser
+    /// than the fixed march at `step`; finer where it matters.
     pub fn around(step: f64) -> Adaptive {
         Adaptive {
-            min_step: 0.25 * step,
-            max_step: 4.0 * step,
+            min_step: step / 8.0,
+            max_step: step,
             tolerance: 1.0 / 256.0,
         }
     }

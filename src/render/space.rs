@@ -100,6 +100,11 @@ impl Occupancy {
         grid
     }
 
+    /// How many bricks the box is divided into.
+    pub fn bricks(&self) -> usize {
+        self.occupied.len()
+    }
+
     fn region(&self, lo: [usize; 3], hi: [usize; 3]) -> Aabb {
         let at = |c: [usize; 3]| {
             self.bounds.min + self.brick * DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64)

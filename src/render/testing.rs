@@ -1,78 +1,60 @@
-//! Test fields with known answers: unions of constant-density balls and boxes whose interval
+//! Test fields with known answers: sums of constant-density balls whose interval
 //! range is exact, and which count how many points they were asked to evaluate (and how many of
-//! those fell where the field is certainly empty).
+//! those fell inside a box the test declares off-limits, e.g. one that is certainly empty).
 
 use crate::sample::{Aabb, BlockEval, FieldSampler};
 use glam::DVec3;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-/// A piece of constant density.
+/// A ball of constant density.
 #[derive(Clone, Copy, Debug)]
-pub enum Piece {
-    Ball {
-        centre: DVec3,
-        radius: f64,
-        value: f64,
-    },
-    Box {
-        min: DVec3,
-        max: DVec3,
-        value: f64,
-    },
+pub struct Ball {
+    pub centre: DVec3,
+    pub radius: f64,
+    pub value: f64,
 }
 
-impl Piece {
+impl Ball {
     fn contains(&self, p: DVec3) -> bool {
-        match *self {
-            Piece::Ball { centre, radius, .. } => (p - centre).length_squared() <= radius * radius,
-            Piece::Box { min, max, .. } => p.cmpge(min).all() && p.cmple(max).all(),
-        }
+        (p - self.centre).length_squared() <= self.radius * self.radius
     }
 
     fn touches(&self, region: &Aabb) -> bool {
-        match *self {
-            Piece::Ball { centre, radius, .. } => {
-                (centre.clamp(region.min, region.max) - centre).length() <= radius
-            }
-            Piece::Box { min, max, .. } => !Aabb::new(min, max).intersection(region).is_empty(),
-        }
-    }
-
-    fn value(&self) -> f64 {
-        match *self {
-            Piece::Ball { value, .. } | Piece::Box { value, .. } => value,
-        }
+        (self.centre.clamp(region.min, region.max) - self.centre).length() <= self.radius
     }
 
     fn bounds(&self) -> Aabb {
-        match *self {
-            Piece::Ball { centre, radius, .. } => {
-                Aabb::new(centre - DVec3::splat(radius), centre + DVec3::splat(radius))
-            }
-            Piece::Box { min, max, .. } => Aabb::new(min, max),
-        }
+        let r = DVec3::splat(self.radius);
+        Aabb::new(self.centre - r, self.centre + r)
     }
 }
 
-/// Sum of pieces, replicated into `width` equal components (or scaled per component by `tint`).
+/// Sum of balls, replicated into `width` equal components (or scaled per component by `tint`).
 pub struct Pieces {
-    pub pieces: Vec<Piece>,
+    pub pieces: Vec<Ball>,
     pub tint: Vec<f64>,
     pub bounds: Option<Aabb>,
+    pub forbidden: Option<Aabb>,
     pub evaluated: AtomicUsize,
-    pub evaluated_empty: AtomicUsize,
+    pub evaluated_forbidden: AtomicUsize,
 }
 
 impl Pieces {
-    pub fn new(pieces: Vec<Piece>) -> Pieces {
+    pub fn new(pieces: Vec<Ball>) -> Pieces {
         let bounds = pieces.iter().map(|p| p.bounds()).reduce(|a, b| a.union(&b));
         Pieces {
             pieces,
             tint: vec![1.0],
             bounds,
+            forbidden: None,
             evaluated: AtomicUsize::new(0),
-            evaluated_empty: AtomicUsize::new(0),
+            evaluated_forbidden: AtomicUsize::new(0),
         }
+    }
+
+    pub fn forbidding(mut self, region: Aabb) -> Pieces {
+        self.forbidden = Some(region);
+        self
     }
 
     pub fn tinted(mut self, tint: &[f64]) -> Pieces {
@@ -84,7 +66,7 @@ impl Pieces {
         self.pieces
             .iter()
             .filter(|q| q.contains(p))
-            .map(|q| q.value())
+            .map(|q| q.value)
             .sum()
     }
 }
@@ -103,18 +85,21 @@ impl BlockEval for PiecesEval<'_> {
 
     fn eval_f64(&mut self, xs: &[f64], ys: &[f64], zs: &[f64], out: &mut [f64]) {
         let n = xs.len();
-        let mut empty = 0;
+        let mut forbidden = 0;
         for i in 0..n {
-            let v = self.0.value_at(DVec3::new(xs[i], ys[i], zs[i]));
-            if v == 0.0 {
-                empty += 1;
+            let p = DVec3::new(xs[i], ys[i], zs[i]);
+            let v = self.0.value_at(p);
+            if self.0.forbidden.is_some_and(|f| f.contains(p)) {
+                forbidden += 1;
             }
             for (c, t) in self.0.tint.iter().enumerate() {
                 out[c * n + i] = v * t;
             }
         }
         self.0.evaluated.fetch_add(n, Ordering::Relaxed);
-        self.0.evaluated_empty.fetch_add(empty, Ordering::Relaxed);
+        self.0
+            .evaluated_forbidden
+            .fetch_add(forbidden, Ordering::Relaxed);
     }
 }
 
@@ -136,7 +121,7 @@ impl FieldSampler for Pieces {
             .pieces
             .iter()
             .filter(|p| p.touches(region))
-            .map(|p| p.value().max(0.0))
+            .map(|p| p.value.max(0.0))
             .sum();
         self.tint.iter().map(|t| (0.0, hi * t)).collect()
     }

@@ -1,5 +1,5 @@
 use super::*;
-use crate::render::testing::{Piece, Pieces, chord_in_ball};
+use crate::render::testing::{Ball, Pieces, chord_in_ball};
 use crate::sample::FnField;
 use std::sync::atomic::Ordering;
 
@@ -102,7 +102,7 @@ fn constant_density_columns_are_path_lengths() {
 fn ball_errors(light_dir: DVec3, method: TransmissivityMethod, cell: f64) -> (f64, f64) {
     let (centre, radius, rho, kappa) = (DVec3::splat(1.0), 0.8, 1.0, 2.0);
     let domain = cube(2.0, cell);
-    let ball = Pieces::new(vec![Piece::Ball {
+    let ball = Pieces::new(vec![Ball {
         centre,
         radius,
         value: rho,
@@ -162,8 +162,8 @@ fn point_light_columns_are_path_lengths() {
     // Well above the box: swept. Inside: marched (a sweep is refused).
     let above = Light::point(DVec3::new(0.5, 3.0, 0.4), DVec3::ONE).unwrap();
     let inside = Light::point(DVec3::new(0.5, 0.5, 0.5), DVec3::ONE).unwrap();
-    assert_eq!(sweep_plan(&above, &domain), Some((1, false)));
-    assert_eq!(sweep_plan(&inside, &domain), None);
+    assert_eq!(sweeps(&above, &domain), Some((1, false)));
+    assert_eq!(sweeps(&inside, &domain), None);
     assert!(light_columns(&density, &inside, &domain, TransmissivityMethod::Sweep, 1.0).is_err());
     for (light, method, tolerance) in [
         (&above, TransmissivityMethod::Auto, 0.01),
@@ -235,7 +235,7 @@ fn transmissivity_is_the_exponential_of_the_column_and_checks_inputs() {
 #[test]
 fn sweep_skips_empty_bricks_and_handles_rotated_domains() {
     // A small ball in a corner of a 64³ grid: only the bricks around it are evaluated.
-    let ball = Pieces::new(vec![Piece::Ball {
+    let ball = Pieces::new(vec![Ball {
         centre: DVec3::splat(0.2),
         radius: 0.1,
         value: 1.0,
