@@ -58,6 +58,7 @@ pub struct Illumination<'a> {
     pub lights: &'a [Light],
     pub columns: Columns,
     kappa: DVec3,
+    grey: bool,
     octaves: Vec<Octave>,
     powder: f64,
     pub ambient: DVec3,
@@ -110,6 +111,7 @@ impl<'a> Illumination<'a> {
             lights,
             columns,
             kappa: settings.kappa,
+            grey: settings.grey_kappa(),
             octaves,
             powder: settings.powder.unwrap_or(0.0),
             ambient: settings.ambient,
@@ -155,18 +157,24 @@ impl<'a> Illumination<'a> {
         let cos_theta = -travel.dot(view);
         let mut sum = DVec3::ZERO;
         for octave in &self.octaves {
-            let optical = self.kappa * (octave.extinction * column);
-            let transmitted =
-                DVec3::new((-optical.x).exp(), (-optical.y).exp(), (-optical.z).exp());
+            let transmitted = self.beer(octave.extinction * column);
             sum += transmitted * (octave.weight * octave.phase.relative(cos_theta));
         }
         if self.powder > 0.0 {
             let weight = self.powder * 0.5 * (1.0 - cos_theta);
-            let optical = self.kappa * (2.0 * column);
-            let powder = DVec3::new((-optical.x).exp(), (-optical.y).exp(), (-optical.z).exp());
-            sum *= DVec3::ONE - powder * weight;
+            sum *= DVec3::ONE - self.beer(2.0 * column) * weight;
         }
         strength * sum
+    }
+
+    /// `exp(−κ·column)` per channel; one exponential when κ is grey.
+    fn beer(&self, column: f64) -> DVec3 {
+        let optical = self.kappa * column;
+        if self.grey {
+            DVec3::splat((-optical.x).exp())
+        } else {
+            DVec3::new((-optical.x).exp(), (-optical.y).exp(), (-optical.z).exp())
+        }
     }
 }
 

@@ -20,7 +20,8 @@
 //! (`T_before − T_after = (1−ΔT)·W`), so a constant holdout of ½ halves colour and alpha alike.
 //! `T_L·L` is `lighting::Illumination`'s `S`, summed over lights, plus ambient.
 //!
-//! The one key decision: rays are marched a tile (16×16 pixels × samples) at a time, in
+//! The one key decision: rays are marched a tile (16×16 pixels × samples; smaller tiles at
+//! high sample counts) at a time, in
 //! lockstep: each round gathers the next sample of every still-active ray into blocks of
 //! `BLOCK` points and evaluates each field once per block, colour and lighting only where the
 //! density is positive. A ray is marched only over its runs of non-empty bricks; its samples
@@ -37,8 +38,21 @@ use super::transmittance::ColumnScratch;
 use crate::sample::{Aabb, BLOCK, BlockEval, FieldSampler};
 use glam::DVec3;
 
-/// Pixels along a tile's side.
-pub const TILE: usize = 16;
+/// Pixels along a tile's side at one sample per pixel.
+const TILE: usize = 16;
+/// Sample rays marched together in a tile, at most (unless one pixel alone has more).
+const TILE_RAYS: usize = 4096;
+
+/// Pixels along a tile's side for `spp` samples per pixel: 16, halved while a tile would hold
+/// more than 4096 rays, so a worker's ray state stays a few megabytes at any `spp`. It depends
+/// only on the settings, never on the thread count.
+pub fn tile_side(spp: u32) -> usize {
+    let mut side = TILE;
+    while side > 1 && side * side * spp as usize > TILE_RAYS {
+        side /= 2;
+    }
+    side
+}
 
 /// `φ(x) = (1 − e^−x)/x`, 1 at 0, accurate for tiny and huge `x`.
 pub fn phi(x: f64) -> f64 {
@@ -121,9 +135,10 @@ impl<'a> Worker<'a> {
     /// Renders tile number `tile` of the image.
     pub fn tile(&mut self, frame: &Frame<'_>, tile: usize) -> TileOutput {
         let s = frame.settings;
-        let tiles_x = s.width.div_ceil(TILE);
-        let (x0, y0) = ((tile % tiles_x) * TILE, (tile / tiles_x) * TILE);
-        let (w, h) = (TILE.min(s.width - x0), TILE.min(s.height - y0));
+        let side = tile_side(s.spp);
+        let tiles_x = s.width.div_ceil(side);
+        let (x0, y0) = ((tile % tiles_x) * side, (tile / tiles_x) * side);
+        let (w, h) = (side.min(s.width - x0), side.min(s.height - y0));
         let spp = s.spp as usize;
         self.rays.start(frame, x0, y0, w, h);
         let mut stats = MarchStats::default();
@@ -177,7 +192,11 @@ impl<'a> Worker<'a> {
                     // The lattice (n + u)·Δs: the first point past t.
                     let ds = frame.step;
                     let u = rays.u[r];
-                    let mut b = ((t / ds - u).floor() + 1.0 + u) * ds;
+                    // q > −1 (t ≥ 0, u < 1), so truncation corrected for negatives is the
+                    // floor, without a libm call.
+                    let q = t / ds - u;
+                    let n = (q as i64 - i64::from(q < 0.0)) as f64;
+                    let mut b = (n + 1.0 + u) * ds;
                     if b <= t + 1e-9 * ds {
                         b += ds;
                     }
@@ -439,6 +458,15 @@ impl<'a> Worker<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn tiles_shrink_with_the_sample_count() {
+        assert_eq!(tile_side(1), 16);
+        assert_eq!(tile_side(16), 16);
+        assert_eq!(tile_side(17), 8);
+        assert_eq!(tile_side(1024), 2);
+        assert_eq!(tile_side(65536), 1);
+    }
 
     #[test]
     fn phi_is_finite_and_exact_at_both_ends() {

@@ -42,7 +42,7 @@ use crate::failure::{Failure, Outcome};
 use crate::grid::domain::memory_limit;
 use crate::sample::{Aabb, FieldSampler};
 use lighting::Illumination;
-use march::{Frame, TILE, Worker};
+use march::{Frame, Worker, tile_side};
 use rayon::prelude::*;
 use space::Occupancy;
 use std::io::IsTerminal;
@@ -142,7 +142,8 @@ pub fn render_with_stats(
         step,
         aov_count: aov_names.len(),
     };
-    let tiles = settings.width.div_ceil(TILE) * settings.height.div_ceil(TILE);
+    let side = tile_side(settings.spp);
+    let tiles = settings.width.div_ceil(side) * settings.height.div_ceil(side);
     let progress = Progress::new(tiles as u64);
     let marching = Instant::now();
     let outputs: Vec<TileOutput> = (0..tiles)

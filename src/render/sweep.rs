@@ -170,8 +170,9 @@ fn upstream(
     let in_band = u < 0.0 || v < 0.0 || u > (nb - 1) as f64 || v > (nc - 1) as f64;
     let u = u.clamp(0.0, (nb - 1) as f64);
     let v = v.clamp(0.0, (nc - 1) as f64);
-    let i = (u.floor() as usize).min(nb.saturating_sub(2));
-    let j = (v.floor() as usize).min(nc.saturating_sub(2));
+    // Clamped non-negative: truncation is the floor.
+    let i = (u as usize).min(nb.saturating_sub(2));
+    let j = (v as usize).min(nc.saturating_sub(2));
     let (fu, fv) = (u - i as f64, v - j as f64);
     let di = usize::from(nb > 1);
     let dj = if nc > 1 { nb } else { 0 };

@@ -631,3 +631,28 @@ fn seeds_change_the_jitter_and_nothing_else() {
     let mean_alpha = |im: &Image| im.rgba.iter().map(|p| p[3] as f64).sum::<f64>() / 256.0;
     assert!((mean_alpha(&a) - mean_alpha(&c)).abs() < 0.01);
 }
+
+#[test]
+fn point_light_falls_off_with_distance_squared_on_a_thin_slab() {
+    // κ = 0 isolates the light: a slab of thickness δ scatters ρ·δ·I/r² towards the camera,
+    // r the distance from the light at (0, 0, 1) to the pixel's point of the slab.
+    let (rho, delta, strength) = (2.0, 0.01, 1.5);
+    let density = slab(1, DVec3::splat(rho), -0.5 * delta, 0.5 * delta);
+    let light = Light::point(DVec3::new(0.0, 0.0, 1.0), DVec3::splat(strength)).unwrap();
+    let settings = RenderSettings {
+        kappa: DVec3::ZERO,
+        step: Some(0.001),
+        ..small(4, 4)
+    };
+    let image = render(&scene(&density, vec![light]), &settings).unwrap();
+    for (i, p) in image.rgba.iter().enumerate() {
+        let x = -0.5 + ((i % 4) as f64 + 0.5) / 4.0;
+        let y = 0.5 - ((i / 4) as f64 + 0.5) / 4.0;
+        let expected = rho * delta * strength / (x * x + y * y + 1.0);
+        assert!(
+            (p[1] as f64 - expected).abs() < 1e-4 * expected,
+            "{} vs {expected}",
+            p[1]
+        );
+    }
+}

@@ -81,7 +81,8 @@ impl LightGrid {
         let mut frac = [0f64; 3];
         for (axis, n) in [nx, ny, nz].into_iter().enumerate() {
             let x = idx[axis].clamp(0.0, (n - 1) as f64);
-            let i = (x.floor() as usize).min(n.saturating_sub(2));
+            // x is clamped non-negative, so truncation is the floor (and needs no libm call).
+            let i = (x as usize).min(n.saturating_sub(2));
             base[axis] = i;
             frac[axis] = x - i as f64;
         }
@@ -157,7 +158,8 @@ pub fn light_columns(
             ),
         );
     };
-    domain.check_grid_memory(2)?;
+    // Density, columns and their slice-ordered copies: four grids at once while sweeping.
+    domain.check_grid_memory(4)?;
     let sweep_axis = sweeps(light, domain);
     let use_sweep = match method {
         TransmissivityMethod::Sweep => {
