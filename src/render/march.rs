@@ -8,7 +8,8 @@
 //! ΔT   = exp(−κρΔs)                                    (1.2)
 //! C_a += W·[ C_d·(1−ΔT)/κ·T_L·L  +  E·(1−ΔT)/(κρ) ]    (1.3, plus emission)
 //! T    = lerp(1 − T_h, T, ΔT)                          (1.4 with a holdout, notes §3.4.2)
-//! W    = max(T + T_h − 1, 0)                           (T itself when there is no holdout)
+//! W    = max(T + T_h − 1, 0)                           (T before the update; without a
+//!                                                       holdout T_h = 1 and W = T)
 //! ```
 //!
 //! `(1−ΔT)/κ` is computed as `Δs·ρ·φ(κρΔs)` and `(1−ΔT)/(κρ)` as `Δs·φ(κρΔs)`, with
@@ -21,9 +22,8 @@
 //! `T_L·L` is `lighting::Illumination`'s `S`, summed over lights, plus ambient.
 //!
 //! The one key decision: rays are marched a tile (16×16 pixels × samples; smaller tiles at
-//! high sample counts) at a time, in
-//! lockstep: each round gathers the next sample of every still-active ray into blocks of
-//! `BLOCK` points and evaluates each field once per block, colour and lighting only where the
+//! high sample counts) at a time, in lockstep: each round gathers the next sample of every
+//! still-active ray into blocks of `BLOCK` points and evaluates each field once per block, colour and lighting only where the
 //! density is positive. A ray is marched only over its runs of non-empty bricks; its samples
 //! lie on a lattice `(n + u)·Δs` along the ray, `u` one jitter per ray from a counter hash, so
 //! the image is the same for any thread count.
@@ -61,6 +61,16 @@ pub fn phi(x: f64) -> f64 {
     } else {
         -(-x).exp_m1() / x
     }
+}
+
+/// `(ΔT, φ)` for a step of optical thickness `x = κρΔs` from one `expm1`: `ΔT = 1 + expm1(−x)`
+/// (exact to 1e-16 absolute, in [0, 1]) and `φ = −expm1(−x)/x`.
+fn step_factors(x: f64) -> (f64, f64) {
+    if x < 1e-8 {
+        return (1.0 - x, 1.0 - 0.5 * x);
+    }
+    let m = (-x).exp_m1();
+    (1.0 + m, -m / x)
 }
 
 /// What every tile shares.
@@ -356,15 +366,11 @@ impl<'a> Worker<'a> {
         };
         let optical = s.kappa * (rho * ds);
         let (step_t, phis) = if s.grey_kappa() {
-            (
-                DVec3::splat((-optical.x).exp()),
-                DVec3::splat(phi(optical.x)),
-            )
+            let (t, p) = step_factors(optical.x);
+            (DVec3::splat(t), DVec3::splat(p))
         } else {
-            (
-                DVec3::new((-optical.x).exp(), (-optical.y).exp(), (-optical.z).exp()),
-                DVec3::new(phi(optical.x), phi(optical.y), phi(optical.z)),
-            )
+            let [(tx, px), (ty, py), (tz, pz)] = optical.to_array().map(step_factors);
+            (DVec3::new(tx, ty, tz), DVec3::new(px, py, pz))
         };
         let emission = if frame.emission.is_some() {
             DVec3::new(
@@ -458,6 +464,16 @@ impl<'a> Worker<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn step_factors_match_exp_and_phi() {
+        for x in [0.0, 1e-9, 1e-3, 0.5, 3.0, 40.0, 1e4, f64::INFINITY] {
+            let (t, p) = step_factors(x);
+            assert!((t - (-x).exp()).abs() < 2e-16, "{x}: {t}");
+            assert!((0.0..=1.0).contains(&t));
+            assert!((p - phi(x)).abs() <= 1e-15 * phi(x).max(1e-300), "{x}: {p}");
+        }
+    }
 
     #[test]
     fn tiles_shrink_with_the_sample_count() {

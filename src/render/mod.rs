@@ -4,9 +4,10 @@
 //! lights) and `RenderSettings`, and returns an `Image`; `write_image` stores it as OpenEXR or a
 //! PNG preview. Fields are consumed only through `sample::FieldSampler`, in blocks. The pieces,
 //! one physical idea each: `camera` (rays), `light` (sources), `phase` (angular scattering),
-//! `transmittance` (light reaching each point through the volume, precomputed on grids),
-//! `lighting` (illumination at a sample), `space` (empty-space skipping), `march` (the
-//! integrator, eqs. 1.1–1.4 of the course notes), `image` (files).
+//! `transmittance` and `sweep` (light reaching each point through the volume, precomputed on
+//! grids), `lighting` (illumination at a sample), `space` (empty-space skipping), `march` (the
+//! integrator, eqs. 1.1–1.4 of the course notes), `adaptive` (step control), `tile` (ray state
+//! and pixels), `settings`, `image` (files).
 //!
 //! The one key decision: the march needs a finite box — the `bounds` setting, else the
 //! density's own bounds — and everything (step default, shadow grids, empty-space bricks) is

@@ -3,21 +3,21 @@
 //! What is stored is the light's *density column* `D(x) = ∫ ρ ds` from `x` towards the light,
 //! at the cell centres of a grid over the density's box; then `T_L = exp(−κ·D)` for any
 //! extinction `κ`, so one grid serves every colour channel, the multiple-scattering octaves
-//! (which scale κ) and the powder term. Two ways of filling it:
+//! (which scale κ) and the powder term. During the march the grid is read trilinearly. Two ways
+//! of filling it:
 //!
-//! - **Sweep** (slice by slice, as in the real-time cloud shading of seed 003): cells are visited
-//!   slice by slice along the grid axis closest to the light's direction, in the order the light
-//!   travels. A cell's column is its upstream neighbour point's column — read bilinearly from
-//!   the slice just done, where the line towards the light crosses it — plus the trapezoid
-//!   integral of density over the short segment between them. One density sample per cell.
+//! - **Sweep** (`sweep.rs`): slice by slice along the grid axis closest to the light, each
+//!   cell's column from the slice just done plus the density in between. One density sample
+//!   per cell; cost grows with the cell count.
 //! - **March**: every cell marches towards the light on its own, sampling the density field at
-//!   steps of one cell. Cost grows with the grid's side; no interpolation blur.
+//!   steps of one cell. Cost grows with the cell count times the grid's side; no interpolation.
 //!
 //! The one key decision: `Auto` sweeps for distant lights and for point lights that lie well
-//! outside the grid on one side (where every line to the light crosses the slices at no more
-//! than 60° from their normal), and marches otherwise. Measured on a 64³ grid over a ball the
-//! sweep is two orders of magnitude faster and agrees with the march to a few 1e-3 in
-//! transmittance (see the tests and `benches/render.rs`). Density outside the domain is zero.
+//! outside the grid on one side (every line to the light within 60° of the sweep axis), and
+//! marches otherwise. Measured over a lumpy ball (`benches/render.rs`, κ = 8): at 64³ the sweep
+//! takes 0.017 s against 0.18 s, at 128³ 0.13 s against 2.8 s, and agrees with the march to a
+//! mean |ΔT| of 1.6e-3 and 3.9e-4; its worst cells (0.10, 0.046) lie along shadow edges, which
+//! interpolation slice after slice softens. Density outside the domain is zero.
 
 use super::light::Light;
 use super::sweep::sweep;
