@@ -13,17 +13,17 @@
 //! density's own bounds — and everything (step default, shadow grids, empty-space bricks) is
 //! laid over that box in world units.
 
-pub mod adaptive;
+mod adaptive;
 pub mod camera;
 pub mod image;
 pub mod light;
-pub mod lighting;
-pub mod march;
+mod lighting;
+mod march;
 pub mod phase;
 pub mod settings;
-pub mod space;
-pub mod sweep;
-pub mod tile;
+mod space;
+mod sweep;
+mod tile;
 pub mod transmittance;
 
 #[cfg(test)]
