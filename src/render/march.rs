@@ -19,6 +19,8 @@
 //! `exp(−κρs)`, so the step's own self-shadowing is accounted for (Frostbite's energy-conserving
 //! form). `W` weighs a step's colour by the same factor the holdout lerp gives its opacity
 //! (`T_before − T_after = (1−ΔT)·W`), so a constant holdout of ½ halves colour and alpha alike.
+//! The lerp is the notes' form as written: where `T_h` falls along a ray, `T` is pulled towards
+//! `1 − T_h` and may rise (alpha then shrinks), while `W` keeps colour behind the holdout at 0.
 //! `T_L·L` is `lighting::Illumination`'s `S`, summed over lights, plus ambient.
 //!
 //! The one key decision: rays are marched a tile (16×16 pixels × samples; smaller tiles at
