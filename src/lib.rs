@@ -9,5 +9,6 @@
 
 pub mod failure;
 pub mod grid;
+pub mod render;
 pub mod sample;
 pub mod syntax;
