@@ -16,7 +16,8 @@ use std::collections::HashMap;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Activity {
     /// Active where some component differs from the background by more than the tolerance;
-    /// for fog volumes and vector fields.
+    /// the other voxels are stored inactive at the background, as OpenVDB's `copyFromDense`
+    /// stores them. For fog volumes and vector fields.
     AwayFromBackground(f32),
     /// For level sets: active inside the narrow band `|φ| < background`; elsewhere inactive,
     /// stored as `+background` outside and `−background` inside.
@@ -149,13 +150,20 @@ impl VdbGrid {
         Ok(())
     }
 
-    /// Decides whether a voxel is active; a level set's inactive voxels snap to ±background.
+    /// Decides whether a voxel is active; inactive voxels snap to the background (±background
+    /// for a level set).
     fn classify(&self, activity: Activity, value: &mut [f32]) -> bool {
         match activity {
-            Activity::AwayFromBackground(tolerance) => value
-                .iter()
-                .zip(self.background)
-                .any(|(v, b)| (v - b).is_nan() || (v - b).abs() > tolerance),
+            Activity::AwayFromBackground(tolerance) => {
+                let away = value
+                    .iter()
+                    .zip(self.background)
+                    .any(|(v, b)| (v - b).is_nan() || (v - b).abs() > tolerance);
+                if !away {
+                    value.copy_from_slice(&self.background[..value.len()]);
+                }
+                away
+            }
             Activity::NarrowBand => {
                 let width = self.background[0];
                 if value[0].abs() < width {

@@ -14,6 +14,7 @@
 
 mod build;
 mod compress;
+mod cursor;
 mod half;
 mod read;
 mod read_tree;

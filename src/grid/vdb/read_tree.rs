@@ -10,8 +10,9 @@
 //! does, so a level set's inactive interior reads −background.
 
 use super::compress;
+use super::cursor::Cursor;
 use super::half::f16_to_f32;
-use super::read::{Cursor, VERSION_NODE_MASK_COMPRESSION};
+use super::read::VERSION_NODE_MASK_COMPRESSION;
 use super::{LEAF_VOXELS, VdbLeaf, VdbTile};
 use crate::failure::Outcome;
 use std::borrow::Cow;
