@@ -199,6 +199,9 @@ fn read_transform(cur: &mut Cursor) -> Outcome<DMat4> {
     if !matrix.is_finite() || determinant == 0.0 || !determinant.is_finite() {
         return Err(cur.fail(at, format!("the {map} transform is degenerate")));
     }
+    if matrix.row(3) != glam::DVec4::W {
+        return Err(cur.fail(at, format!("the {map} transform is projective, not affine")));
+    }
     Ok(matrix)
 }
 
@@ -324,6 +327,7 @@ fn read_archive(bytes: &[u8], wanted: Option<&str>) -> Outcome<Vec<VdbGrid>> {
             // Without offsets the only way to the next descriptor is through this grid.
             None => {
                 let grid = parse_grid(&mut cur, &descriptor, &header)?;
+                cur.grid.clear();
                 parsed.push(Some(grid));
             }
         }
