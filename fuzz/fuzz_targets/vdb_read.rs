@@ -9,7 +9,10 @@ use libfuzzer_sys::fuzz_target;
 
 /// Equal as OpenVDB compares values: −0 equals +0, and any NaN equals any NaN.
 fn same_values(a: &[f32], b: &[f32]) -> bool {
-    a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x == y || (x.is_nan() && y.is_nan()))
+    a.len() == b.len()
+        && a.iter()
+            .zip(b)
+            .all(|(x, y)| x == y || (x.is_nan() && y.is_nan()))
 }
 
 fn check_rewrite(grids: &[VdbGrid]) {
