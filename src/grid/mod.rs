@@ -4,3 +4,4 @@ pub mod cache;
 pub mod domain;
 pub mod interp;
 pub mod profile;
+pub mod vdb;
