@@ -8,6 +8,7 @@
 //! upstream: the raymarcher knows fields, not syntax; the evaluator knows nodes, not statements.
 
 pub mod failure;
+pub mod field;
 pub mod grid;
 pub mod render;
 pub mod sample;

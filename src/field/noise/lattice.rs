@@ -1,0 +1,201 @@
+//! Where a point sits on the integer lattice, in f32 lanes or in f64, and the number type the
+//! noise kernels are written over.
+//!
+//! The one key decision: precision far from the origin comes from splitting positions, not
+//! from wide lanes. A block of points is given as one `f64` base point plus small `f32`
+//! offsets; the base's lattice cell is taken once per block in `f64`/`i64`, and each lane only
+//! adds its offset to the base's fractional part. So a point 10⁹ units away is located as
+//! exactly as one near the origin, while the per-point work stays in `f32`. The `f64` path
+//! floors each coordinate directly; both paths then run the same kernel code (generic over
+//! [`Real`]), so they compute the same function and differ only by rounding.
+
+use std::ops::{Add, Mul, Neg, Sub};
+
+/// The lane number type of the kernels: `f32` for speed, `f64` as the accuracy reference.
+pub(crate) trait Real:
+    Copy
+    + PartialOrd
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Neg<Output = Self>
+{
+    const ZERO: Self;
+    const ONE: Self;
+    /// A constant written in `f64` (folded at compile time).
+    fn lit(v: f64) -> Self;
+    fn from_i32(v: i32) -> Self;
+    fn sqrt(self) -> Self;
+    /// `1 / self`.
+    fn recip(self) -> Self;
+    fn to_f64(self) -> f64;
+}
+
+impl Real for f32 {
+    const ZERO: f32 = 0.0;
+    const ONE: f32 = 1.0;
+    #[inline(always)]
+    fn lit(v: f64) -> f32 {
+        v as f32
+    }
+    #[inline(always)]
+    fn from_i32(v: i32) -> f32 {
+        v as f32
+    }
+    #[inline(always)]
+    fn sqrt(self) -> f32 {
+        f32::sqrt(self)
+    }
+    #[inline(always)]
+    fn recip(self) -> f32 {
+        1.0 / self
+    }
+    #[inline(always)]
+    fn to_f64(self) -> f64 {
+        self as f64
+    }
+}
+
+impl Real for f64 {
+    const ZERO: f64 = 0.0;
+    const ONE: f64 = 1.0;
+    #[inline(always)]
+    fn lit(v: f64) -> f64 {
+        v
+    }
+    #[inline(always)]
+    fn from_i32(v: i32) -> f64 {
+        v as f64
+    }
+    #[inline(always)]
+    fn sqrt(self) -> f64 {
+        f64::sqrt(self)
+    }
+    #[inline(always)]
+    fn recip(self) -> f64 {
+        1.0 / self
+    }
+    #[inline(always)]
+    fn to_f64(self) -> f64 {
+        self
+    }
+}
+
+/// `if c { a } else { b }` for lane values; compiles to a blend, not a branch.
+#[inline(always)]
+pub(crate) fn select<R: Real>(c: bool, a: R, b: R) -> R {
+    if c { a } else { b }
+}
+
+/// What a kernel returns for one point. Hessian order: xx, yy, zz, xy, xz, yz.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Sample<R> {
+    pub value: R,
+    pub gradient: [R; 3],
+    pub hessian: [R; 6],
+}
+
+impl<R: Real> Sample<R> {
+    #[inline(always)]
+    pub fn zero() -> Sample<R> {
+        Sample {
+            value: R::ZERO,
+            gradient: [R::ZERO; 3],
+            hessian: [R::ZERO; 6],
+        }
+    }
+}
+
+/// A point on the lattice: its cell (modulo 2³²) and its position inside the cell, in [0, 1).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Located<R> {
+    pub cell: [u32; 3],
+    pub frac: [R; 3],
+}
+
+/// A block's base point on the lattice, located once in `f64`.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct BlockBase {
+    cell: [u32; 3],
+    frac: [f32; 3],
+}
+
+impl BlockBase {
+    pub fn new(base: [f64; 3]) -> BlockBase {
+        let mut cell = [0u32; 3];
+        let mut frac = [0f32; 3];
+        for axis in 0..3 {
+            let floor = base[axis].floor();
+            // i64 holds any cell a scene can reach; the hash only sees it modulo 2³².
+            cell[axis] = floor as i64 as u32;
+            frac[axis] = (base[axis] - floor) as f32;
+        }
+        BlockBase { cell, frac }
+    }
+
+    /// The lattice position of `base + offset`. Only the small offset is carried in `f32`.
+    #[inline(always)]
+    pub fn locate(&self, offset: [f32; 3]) -> Located<f32> {
+        let mut cell = [0u32; 3];
+        let mut frac = [0f32; 3];
+        for axis in 0..3 {
+            let t = self.frac[axis] + offset[axis];
+            let floor = floor_i32(t);
+            cell[axis] = self.cell[axis].wrapping_add(floor as u32);
+            frac[axis] = t - floor as f32;
+        }
+        Located { cell, frac }
+    }
+}
+
+/// `floor` of a lane value that fits an i32 (block offsets always do; anything else saturates
+/// rather than failing). Written with a truncating convert so it vectorises on every x86 level.
+#[inline(always)]
+fn floor_i32(t: f32) -> i32 {
+    let truncated = t as i32;
+    truncated - ((truncated as f32) > t) as i32
+}
+
+/// The lattice position of an `f64` point.
+#[inline(always)]
+pub(crate) fn locate_f64(p: [f64; 3]) -> Located<f64> {
+    let mut cell = [0u32; 3];
+    let mut frac = [0f64; 3];
+    for axis in 0..3 {
+        let floor = p[axis].floor();
+        cell[axis] = floor as i64 as u32;
+        frac[axis] = p[axis] - floor;
+    }
+    Located { cell, frac }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn far_cells_wrap_the_same_way_in_both_paths() {
+        for &(base, offset) in &[
+            (1.0e9 + 0.25, 0.5f32),
+            (-1.0e9 - 0.75, 0.5),
+            (-1.0e9 - 0.75, -1.5),
+            (123_456.5, -0.75),
+            (-0.25, 0.5),
+        ] {
+            let block = BlockBase::new([base, 0.0, 0.0]).locate([offset, 0.0, 0.0]);
+            let direct = locate_f64([base + offset as f64, 0.0, 0.0]);
+            assert_eq!(block.cell[0], direct.cell[0], "{base} + {offset}");
+            assert!((block.frac[0] as f64 - direct.frac[0]).abs() < 1e-6);
+            // The cell of x is floor(x) modulo 2³².
+            let expected = (base + offset as f64).floor() as i64;
+            assert_eq!(direct.cell[0], expected.rem_euclid(1 << 32) as u32);
+        }
+    }
+
+    #[test]
+    fn floor_of_lanes() {
+        for &(t, f) in &[(-0.5f32, -1), (0.0, 0), (2.75, 2), (-3.0, -3), (-2.999, -3)] {
+            assert_eq!(floor_i32(t), f);
+        }
+    }
+}

@@ -1,0 +1,404 @@
+//! Procedural noise kernels: Perlin, simplex and Worley noise with exact derivatives,
+//! evaluated a block of points at a time.
+//!
+//! The field evaluator calls [`eval_f32`] (rendering and cache fills) or [`eval_f64`] (`probe`
+//! and accuracy checks) on up to `BLOCK` points laid out as separate x/y/z slices. The one key
+//! decision: every kernel is one generic function of the lane type, inlined into a loop over
+//! the block; that loop is compiled twice, once plain and once with AVX2+FMA enabled, and the
+//! second is chosen at run time when the CPU has them. The compiler then keeps eight `f32`
+//! points per register through hashing, gradient choice and blending, with no table lookups
+//! and no call per point. Lattice spacing is 1: frequency and offsets are applied by the caller.
+
+mod hash;
+mod lattice;
+mod perlin;
+mod simplex;
+mod worley;
+
+#[cfg(test)]
+mod bounds;
+#[cfg(test)]
+mod tests;
+
+use lattice::{BlockBase, Located, Real, Sample, locate_f64};
+
+/// The noise families.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum NoiseKind {
+    /// Improved Perlin gradient noise (quintic fade, twelve edge gradients), about [-1, 1].
+    Perlin,
+    /// 3D simplex noise, scaled so its range is [-1, 1].
+    Simplex,
+    /// Worley F1 cellular noise (distance to the nearest feature point, capped at 1), [0, 1].
+    Worley,
+}
+
+/// Which outputs a call fills. Hessian order: xx, yy, zz, xy, xz, yz.
+pub struct NoiseOutput<'a, T> {
+    pub value: &'a mut [T],
+    pub gradient: Option<[&'a mut [T]; 3]>,
+    pub hessian: Option<[&'a mut [T]; 6]>,
+}
+
+impl<'a, T> NoiseOutput<'a, T> {
+    /// Values only.
+    pub fn value(value: &'a mut [T]) -> NoiseOutput<'a, T> {
+        NoiseOutput {
+            value,
+            gradient: None,
+            hessian: None,
+        }
+    }
+}
+
+/// Noise at the points `base + (x[i], y[i], z[i])`: one `f64` base point per block and `f32`
+/// offsets from it, so precision does not depend on the distance from the origin. Lattice
+/// spacing is 1. All slices should have the same length (at most `BLOCK`); if they differ,
+/// only the common prefix is computed.
+pub fn eval_f32(
+    kind: NoiseKind,
+    seed: u32,
+    base: [f64; 3],
+    x: &[f32],
+    y: &[f32],
+    z: &[f32],
+    out: NoiseOutput<'_, f32>,
+) {
+    let key = hash::seed_key(seed);
+    match kind {
+        NoiseKind::Perlin => run_f32::<Perlin>(key, base, x, y, z, out),
+        NoiseKind::Simplex => run_f32::<Simplex>(key, base, x, y, z, out),
+        NoiseKind::Worley => run_f32::<Worley>(key, base, x, y, z, out),
+    }
+}
+
+/// The same noise at absolute `f64` points: the accuracy reference for [`eval_f32`], which it
+/// matches to `f32` rounding.
+pub fn eval_f64(
+    kind: NoiseKind,
+    seed: u32,
+    x: &[f64],
+    y: &[f64],
+    z: &[f64],
+    out: NoiseOutput<'_, f64>,
+) {
+    let key = hash::seed_key(seed);
+    match kind {
+        NoiseKind::Perlin => run_f64::<Perlin>(key, x, y, z, out),
+        NoiseKind::Simplex => run_f64::<Simplex>(key, x, y, z, out),
+        NoiseKind::Worley => run_f64::<Worley>(key, x, y, z, out),
+    }
+}
+
+/// A proven bound `(lo, hi)` on the value (see each kernel's module and the bound tests).
+pub fn value_range(kind: NoiseKind) -> (f64, f64) {
+    match kind {
+        NoiseKind::Perlin => (-PERLIN_BOUND, PERLIN_BOUND),
+        NoiseKind::Simplex => (-SIMPLEX_BOUND, SIMPLEX_BOUND),
+        NoiseKind::Worley => (0.0, 1.0),
+    }
+}
+
+/// A proven bound on the length of the gradient, i.e. a Lipschitz constant of the noise.
+pub fn lipschitz(kind: NoiseKind) -> f64 {
+    match kind {
+        NoiseKind::Perlin => PERLIN_LIPSCHITZ,
+        NoiseKind::Simplex => SIMPLEX_LIPSCHITZ,
+        NoiseKind::Worley => 1.0,
+    }
+}
+
+/// `|perlin| ≤ 1 + κ₁ + κ₂ + κ₃`, rounded up (derivation and certificate in `bounds.rs`).
+const PERLIN_BOUND: f64 = 1.0;
+/// Certified bound on `|∇perlin|` (`bounds.rs`).
+const PERLIN_LIPSCHITZ: f64 = 10.0;
+/// Certified bound on `|simplex|` (`bounds.rs`); the scaling makes the exact supremum 1.
+const SIMPLEX_BOUND: f64 = 1.0;
+/// Certified bound on `|∇simplex|` (`bounds.rs`).
+const SIMPLEX_LIPSCHITZ: f64 = 10.0;
+
+/// A noise family as the block loops see it: where a point sits on its lattice, and the kernel.
+trait Kernel {
+    /// Whether the lattice is the skewed simplex lattice rather than the cube lattice.
+    const SKEWED: bool;
+    fn sample<R: Real, const G: bool, const H: bool>(p: Located<R>, key: u32) -> Sample<R>;
+}
+
+struct Perlin;
+struct Simplex;
+struct Worley;
+
+impl Kernel for Perlin {
+    const SKEWED: bool = false;
+    #[inline(always)]
+    fn sample<R: Real, const G: bool, const H: bool>(p: Located<R>, key: u32) -> Sample<R> {
+        perlin::sample::<R, G, H>(p, key)
+    }
+}
+
+impl Kernel for Simplex {
+    const SKEWED: bool = true;
+    #[inline(always)]
+    fn sample<R: Real, const G: bool, const H: bool>(p: Located<R>, key: u32) -> Sample<R> {
+        simplex::sample::<R, G, H>(p, key)
+    }
+}
+
+impl Kernel for Worley {
+    const SKEWED: bool = false;
+    #[inline(always)]
+    fn sample<R: Real, const G: bool, const H: bool>(p: Located<R>, key: u32) -> Sample<R> {
+        worley::sample::<R, G, H>(p, key)
+    }
+}
+
+/// Output slices cut to the block length; unused ones are empty.
+struct Sink<'a, T> {
+    value: &'a mut [T],
+    gradient: [&'a mut [T]; 3],
+    hessian: [&'a mut [T]; 6],
+}
+
+impl<T: Copy> Sink<'_, T> {
+    #[inline(always)]
+    fn store<const G: bool, const H: bool>(&mut self, i: usize, s: &Sample<T>) {
+        self.value[i] = s.value;
+        if G {
+            for (slot, v) in self.gradient.iter_mut().zip(s.gradient) {
+                slot[i] = v;
+            }
+        }
+        if H {
+            for (slot, v) in self.hessian.iter_mut().zip(s.hessian) {
+                slot[i] = v;
+            }
+        }
+    }
+}
+
+/// A block loop that can be instantiated for each combination of requested outputs.
+trait BlockRun<T> {
+    fn run<const G: bool, const H: bool>(self, sink: &mut Sink<'_, T>);
+}
+
+/// Cuts the requested outputs to `n` points and calls `run` with the matching `G`/`H`
+/// instantiation. A Hessian without a gradient still computes the gradient, into scratch.
+fn with_sink<T: Copy + Default, B: BlockRun<T>>(out: NoiseOutput<'_, T>, n: usize, run: B) {
+    let NoiseOutput {
+        value,
+        gradient,
+        hessian,
+    } = out;
+    let value = &mut value[..n];
+    let mut scratch = Vec::new();
+    let gradient = match (gradient, hessian.is_some()) {
+        (Some(g), _) => Some(g.map(|s| &mut s[..n])),
+        (None, true) => {
+            scratch.resize(3 * n, T::default());
+            let (a, rest) = scratch.split_at_mut(n);
+            let (b, c) = rest.split_at_mut(n);
+            Some([a, b, c])
+        }
+        (None, false) => None,
+    };
+    match (gradient, hessian) {
+        (None, _) => run.run::<false, false>(&mut Sink {
+            value,
+            gradient: [&mut [], &mut [], &mut []],
+            hessian: [&mut [], &mut [], &mut [], &mut [], &mut [], &mut []],
+        }),
+        (Some(gradient), None) => run.run::<true, false>(&mut Sink {
+            value,
+            gradient,
+            hessian: [&mut [], &mut [], &mut [], &mut [], &mut [], &mut []],
+        }),
+        (Some(gradient), Some(hessian)) => run.run::<true, true>(&mut Sink {
+            value,
+            gradient,
+            hessian: hessian.map(|s| &mut s[..n]),
+        }),
+    }
+}
+
+/// The common length of the inputs and outputs (the prefix every slice has).
+fn common_len<T, U>(x: &[T], y: &[T], z: &[T], out: &NoiseOutput<'_, U>) -> usize {
+    let mut n = x.len().min(y.len()).min(z.len()).min(out.value.len());
+    if let Some(g) = &out.gradient {
+        n = g.iter().fold(n, |n, s| n.min(s.len()));
+    }
+    if let Some(h) = &out.hessian {
+        n = h.iter().fold(n, |n, s| n.min(s.len()));
+    }
+    n
+}
+
+fn run_f32<K: Kernel>(
+    key: u32,
+    base: [f64; 3],
+    x: &[f32],
+    y: &[f32],
+    z: &[f32],
+    out: NoiseOutput<'_, f32>,
+) {
+    let n = common_len(x, y, z, &out);
+    let base = if K::SKEWED { simplex::skew(base) } else { base };
+    let base = BlockBase::new(base);
+    let (x, y, z) = (&x[..n], &y[..n], &z[..n]);
+    struct Run<'a, K> {
+        key: u32,
+        base: BlockBase,
+        x: &'a [f32],
+        y: &'a [f32],
+        z: &'a [f32],
+        kernel: std::marker::PhantomData<K>,
+    }
+    impl<K: Kernel> BlockRun<f32> for Run<'_, K> {
+        fn run<const G: bool, const H: bool>(self, sink: &mut Sink<'_, f32>) {
+            dispatch_f32::<K, G, H>(self.key, &self.base, self.x, self.y, self.z, sink)
+        }
+    }
+    let kernel = std::marker::PhantomData::<K>;
+    with_sink(
+        out,
+        n,
+        Run {
+            key,
+            base,
+            x,
+            y,
+            z,
+            kernel,
+        },
+    )
+}
+
+fn run_f64<K: Kernel>(key: u32, x: &[f64], y: &[f64], z: &[f64], out: NoiseOutput<'_, f64>) {
+    let n = common_len(x, y, z, &out);
+    let (x, y, z) = (&x[..n], &y[..n], &z[..n]);
+    struct Run<'a, K> {
+        key: u32,
+        x: &'a [f64],
+        y: &'a [f64],
+        z: &'a [f64],
+        kernel: std::marker::PhantomData<K>,
+    }
+    impl<K: Kernel> BlockRun<f64> for Run<'_, K> {
+        fn run<const G: bool, const H: bool>(self, sink: &mut Sink<'_, f64>) {
+            dispatch_f64::<K, G, H>(self.key, self.x, self.y, self.z, sink)
+        }
+    }
+    let kernel = std::marker::PhantomData::<K>;
+    with_sink(
+        out,
+        n,
+        Run {
+            key,
+            x,
+            y,
+            z,
+            kernel,
+        },
+    )
+}
+
+/// Whether the AVX2+FMA build of the block loops can run here (detected once, then cached).
+#[cfg(target_arch = "x86_64")]
+#[inline]
+fn has_avx2_fma() -> bool {
+    std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+}
+
+fn dispatch_f32<K: Kernel, const G: bool, const H: bool>(
+    key: u32,
+    base: &BlockBase,
+    x: &[f32],
+    y: &[f32],
+    z: &[f32],
+    sink: &mut Sink<'_, f32>,
+) {
+    #[cfg(target_arch = "x86_64")]
+    if has_avx2_fma() {
+        // SAFETY: the CPU has just been checked for the features this build enables.
+        unsafe { block_f32_avx2::<K, G, H>(key, base, x, y, z, sink) };
+        return;
+    }
+    block_f32::<K, G, H>(key, base, x, y, z, sink)
+}
+
+fn dispatch_f64<K: Kernel, const G: bool, const H: bool>(
+    key: u32,
+    x: &[f64],
+    y: &[f64],
+    z: &[f64],
+    sink: &mut Sink<'_, f64>,
+) {
+    #[cfg(target_arch = "x86_64")]
+    if has_avx2_fma() {
+        // SAFETY: the CPU has just been checked for the features this build enables.
+        unsafe { block_f64_avx2::<K, G, H>(key, x, y, z, sink) };
+        return;
+    }
+    block_f64::<K, G, H>(key, x, y, z, sink)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn block_f32_avx2<K: Kernel, const G: bool, const H: bool>(
+    key: u32,
+    base: &BlockBase,
+    x: &[f32],
+    y: &[f32],
+    z: &[f32],
+    sink: &mut Sink<'_, f32>,
+) {
+    block_f32::<K, G, H>(key, base, x, y, z, sink)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn block_f64_avx2<K: Kernel, const G: bool, const H: bool>(
+    key: u32,
+    x: &[f64],
+    y: &[f64],
+    z: &[f64],
+    sink: &mut Sink<'_, f64>,
+) {
+    block_f64::<K, G, H>(key, x, y, z, sink)
+}
+
+#[inline(always)]
+fn block_f32<K: Kernel, const G: bool, const H: bool>(
+    key: u32,
+    base: &BlockBase,
+    x: &[f32],
+    y: &[f32],
+    z: &[f32],
+    sink: &mut Sink<'_, f32>,
+) {
+    for i in 0..sink.value.len().min(x.len()).min(y.len()).min(z.len()) {
+        let offset = [x[i], y[i], z[i]];
+        let offset = if K::SKEWED {
+            simplex::skew(offset)
+        } else {
+            offset
+        };
+        let s = K::sample::<f32, G, H>(base.locate(offset), key);
+        sink.store::<G, H>(i, &s);
+    }
+}
+
+#[inline(always)]
+fn block_f64<K: Kernel, const G: bool, const H: bool>(
+    key: u32,
+    x: &[f64],
+    y: &[f64],
+    z: &[f64],
+    sink: &mut Sink<'_, f64>,
+) {
+    for i in 0..sink.value.len().min(x.len()).min(y.len()).min(z.len()) {
+        let p = [x[i], y[i], z[i]];
+        let p = if K::SKEWED { simplex::skew(p) } else { p };
+        let s = K::sample::<f64, G, H>(locate_f64(p), key);
+        sink.store::<G, H>(i, &s);
+    }
+}
