@@ -5,3 +5,4 @@ pub mod domain;
 pub mod interp;
 pub mod profile;
 pub mod vdb;
+pub mod vdb_cache;

@@ -1,0 +1,17 @@
+//! The builtins, grouped by capability. Each group registers its entries in the one registry;
+//! adding a capability means adding a group here, nothing else.
+
+mod core;
+mod fields;
+pub mod format;
+pub mod grids;
+mod math;
+
+use super::registry::Registry;
+
+pub fn register_all(r: &mut Registry) {
+    core::register(r);
+    math::register(r);
+    fields::register(r);
+    grids::register(r);
+}
