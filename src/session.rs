@@ -17,7 +17,14 @@ use std::path::{Path, PathBuf};
 use std::rc::Rc;
 
 /// The standard library, compiled into the binary so felt runs from anywhere.
-pub const STDLIB: &[(&str, &str)] = &[];
+pub const STDLIB: &[(&str, &str)] = &[
+    ("stdlib/cumulo.felt", include_str!("../stdlib/cumulo.felt")),
+    ("stdlib/knives.felt", include_str!("../stdlib/knives.felt")),
+    (
+        "stdlib/pyroclastic.felt",
+        include_str!("../stdlib/pyroclastic.felt"),
+    ),
+];
 
 /// One parsed file, ready to check and run.
 pub struct Unit {

@@ -362,6 +362,17 @@ impl Field {
         Ok(Field::scalar(node::unary(f, a.clone())))
     }
 
+    /// A unary function applied to every component.
+    pub fn math_each(&self, f: MathFn) -> Outcome<Field> {
+        Ok(self.map(|c| node::unary(f, c.clone())))
+    }
+
+    /// Division by a scalar that gives 0 where the divisor is 0 (for limits taken as zero).
+    pub fn guarded_div(&self, other: &Field) -> Outcome<Field> {
+        let d = other.only_scalar("the divisor")?.clone();
+        Ok(self.map(|c| node::guarded_div(c.clone(), d.clone())))
+    }
+
     /// 1 where the field is >= 0, else 0.
     pub fn mask(&self) -> Outcome<Field> {
         self.math(MathFn::Step)

@@ -6,6 +6,8 @@ mod fields;
 pub mod format;
 pub mod grids;
 mod math;
+mod modeling;
+mod rendering;
 
 use super::registry::Registry;
 
@@ -14,4 +16,6 @@ pub fn register_all(r: &mut Registry) {
     math::register(r);
     fields::register(r);
     grids::register(r);
+    modeling::register(r);
+    rendering::register(r);
 }
