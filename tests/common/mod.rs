@@ -50,10 +50,11 @@ pub fn run_script(path: &Path, overrides: &[(&str, &str)]) -> Outcome {
         .iter()
         .map(|(k, v)| (k.to_string(), v.to_string()))
         .collect();
-    let (ok, diagnostics) = match session.run_file(path) {
+    let (ok, mut diagnostics) = match session.run_file(path) {
         Ok(w) => (true, w),
         Err(d) => (false, d),
     };
+    diagnostics.extend(session.finish());
     let rendered = diagnostic::render(&diagnostics, &session.sources.borrow(), false);
     Outcome {
         output: out.text(),

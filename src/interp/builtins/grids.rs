@@ -116,7 +116,7 @@ pub fn register(r: &mut Registry) {
         |interp, a| {
             let cache = written(&a)?;
             cache.fill_all();
-            report_nonfinite(interp, &cache, interp.call_span);
+            report_now(interp, &cache);
             Ok(Value::Void)
         },
     );
@@ -132,7 +132,7 @@ pub fn register(r: &mut Registry) {
             let (path, name) = split_grid_name(a.string(1)?);
             let name = name.unwrap_or(if cache.width() == 1 { "density" } else { "vel" });
             vdb_cache::save(&cache, Path::new(path), name)?;
-            report_nonfinite(interp, &cache, interp.call_span);
+            report_now(interp, &cache);
             Ok(Value::Void)
         },
     );
@@ -300,6 +300,14 @@ fn split_grid_name(path: &str) -> (&str, Option<&str>) {
         Some((file, name)) if !name.is_empty() => (file, Some(name)),
         _ => (path, None),
     }
+}
+
+/// Reports non-finite values of a cache now (after a full fill) instead of at the end of the run.
+fn report_now(interp: &mut Interpreter, cache: &Arc<Cache>) {
+    interp
+        .written_caches
+        .retain(|(w, _)| !std::ptr::eq(w.as_ptr(), Arc::as_ptr(cache)));
+    report_nonfinite(interp, cache, interp.call_span);
 }
 
 /// A warning when a cache holds NaN or infinite values (division by zero in its field).
