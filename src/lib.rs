@@ -9,6 +9,7 @@
 
 pub mod failure;
 pub mod field;
+pub mod geometry;
 pub mod grid;
 pub mod render;
 pub mod sample;
