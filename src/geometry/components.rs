@@ -1,0 +1,108 @@
+//! Connected components of a mesh (`pieces(shape)`).
+//!
+//! Two triangles belong to the same piece when they share a vertex, where vertices at exactly
+//! the same position count as one (files often repeat a vertex per face, and such a mesh is
+//! still one piece). The one key decision: the pieces come out in the order of their first
+//! triangle in the input, and each keeps its own vertices in their input order, so the result
+//! depends on nothing but the mesh — and a mesh that is one piece comes back unchanged apart
+//! from dropping unused vertices.
+
+use super::Mesh;
+use std::collections::HashMap;
+
+/// The connected components of `mesh`, ordered by their smallest triangle index, each with
+/// vertex indices renumbered from zero. Triangles that name a missing vertex are left out.
+pub fn pieces(mesh: &Mesh) -> Vec<Mesh> {
+    let n = mesh.positions.len();
+    let valid = |t: &[u32; 3]| t.iter().all(|&v| (v as usize) < n);
+
+    // Weld: each vertex starts in the set of the first vertex at its position.
+    let mut first_at: HashMap<[u64; 3], u32> = HashMap::with_capacity(n);
+    let mut sets = DisjointSets::new(n);
+    for (i, p) in mesh.positions.iter().enumerate() {
+        // +0.0 and -0.0 are the same position.
+        let key = [p.x, p.y, p.z].map(|c| (c + 0.0).to_bits());
+        let first = *first_at.entry(key).or_insert(i as u32);
+        sets.join(first, i as u32);
+    }
+    for t in mesh.triangles.iter().filter(|t| valid(t)) {
+        sets.join(t[0], t[1]);
+        sets.join(t[1], t[2]);
+    }
+
+    // Number the pieces by first appearance along the triangle list.
+    let mut piece_of_root: HashMap<u32, usize> = HashMap::new();
+    let mut triangle_piece = Vec::with_capacity(mesh.triangles.len());
+    for t in &mesh.triangles {
+        if !valid(t) {
+            triangle_piece.push(usize::MAX);
+            continue;
+        }
+        let root = sets.find(t[0]);
+        let next = piece_of_root.len();
+        triangle_piece.push(*piece_of_root.entry(root).or_insert(next));
+    }
+    let count = piece_of_root.len();
+
+    // Each piece keeps the vertices its triangles use, in their original order.
+    let mut vertex_piece = vec![usize::MAX; n];
+    for (t, &piece) in mesh.triangles.iter().zip(&triangle_piece) {
+        if piece != usize::MAX {
+            for &v in t {
+                vertex_piece[v as usize] = piece;
+            }
+        }
+    }
+    let mut out = vec![Mesh::default(); count];
+    let mut renumbered = vec![0u32; n];
+    for (v, &piece) in vertex_piece.iter().enumerate() {
+        if piece != usize::MAX {
+            renumbered[v] = out[piece].positions.len() as u32;
+            out[piece].positions.push(mesh.positions[v]);
+        }
+    }
+    for (t, &piece) in mesh.triangles.iter().zip(&triangle_piece) {
+        if piece != usize::MAX {
+            out[piece].triangles.push(t.map(|v| renumbered[v as usize]));
+        }
+    }
+    out
+}
+
+/// Union–find with path halving and union by size.
+struct DisjointSets {
+    parent: Vec<u32>,
+    size: Vec<u32>,
+}
+
+impl DisjointSets {
+    fn new(n: usize) -> DisjointSets {
+        DisjointSets {
+            parent: (0..n as u32).collect(),
+            size: vec![1; n],
+        }
+    }
+
+    fn find(&mut self, mut v: u32) -> u32 {
+        while self.parent[v as usize] != v {
+            let grandparent = self.parent[self.parent[v as usize] as usize];
+            self.parent[v as usize] = grandparent;
+            v = grandparent;
+        }
+        v
+    }
+
+    fn join(&mut self, a: u32, b: u32) {
+        let (a, b) = (self.find(a), self.find(b));
+        if a == b {
+            return;
+        }
+        let (big, small) = if self.size[a as usize] >= self.size[b as usize] {
+            (a, b)
+        } else {
+            (b, a)
+        };
+        self.parent[small as usize] = big;
+        self.size[big as usize] += self.size[small as usize];
+    }
+}

@@ -1,0 +1,521 @@
+//! Stanford PLY: vertex positions and polygon faces, in ASCII and both binary byte orders.
+//!
+//! Reading parses the header into elements and typed properties, then reads every element in
+//! order, keeping the `x`, `y`, `z` of `vertex` (any numeric type) and the index list of
+//! `face` (`vertex_indices` or `vertex_index`, any integer types), fanning polygons into
+//! triangles, and stepping over everything else. The one key decision: before a single
+//! element is read, its declared count is checked against what the rest of the file can hold
+//! (each element needs at least the bytes of its fixed-size properties, or one token per
+//! property in ASCII), and so is every list length; a lying header is a `Failure` naming the
+//! header line or byte offset, never a huge allocation. Writing produces binary little endian
+//! with double coordinates, so a saved mesh reads back exactly.
+
+use super::Mesh;
+use crate::failure::{Failure, Outcome};
+use glam::DVec3;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Format {
+    Ascii,
+    Little,
+    Big,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Scalar {
+    I8,
+    U8,
+    I16,
+    U16,
+    I32,
+    U32,
+    F32,
+    F64,
+}
+
+impl Scalar {
+    fn parse(name: &str) -> Option<Scalar> {
+        Some(match name {
+            "char" | "int8" => Scalar::I8,
+            "uchar" | "uint8" => Scalar::U8,
+            "short" | "int16" => Scalar::I16,
+            "ushort" | "uint16" => Scalar::U16,
+            "int" | "int32" => Scalar::I32,
+            "uint" | "uint32" => Scalar::U32,
+            "float" | "float32" => Scalar::F32,
+            "double" | "float64" => Scalar::F64,
+            _ => return None,
+        })
+    }
+
+    fn size(self) -> usize {
+        match self {
+            Scalar::I8 | Scalar::U8 => 1,
+            Scalar::I16 | Scalar::U16 => 2,
+            Scalar::I32 | Scalar::U32 | Scalar::F32 => 4,
+            Scalar::F64 => 8,
+        }
+    }
+
+    fn is_integer(self) -> bool {
+        !matches!(self, Scalar::F32 | Scalar::F64)
+    }
+}
+
+#[derive(Clone, Debug)]
+enum Kind {
+    Scalar(Scalar),
+    List { count: Scalar, item: Scalar },
+}
+
+#[derive(Clone, Debug)]
+struct Property {
+    name: String,
+    kind: Kind,
+}
+
+#[derive(Clone, Debug)]
+struct Element {
+    name: String,
+    count: u64,
+    properties: Vec<Property>,
+    /// The header line that declared it, for messages.
+    line: usize,
+}
+
+impl Element {
+    /// The fewest bytes (binary) or tokens (ASCII) one element can occupy.
+    fn least_size(&self, format: Format) -> usize {
+        self.properties
+            .iter()
+            .map(|p| match (&p.kind, format) {
+                (_, Format::Ascii) => 1,
+                (Kind::Scalar(s), _) => s.size(),
+                (Kind::List { count, .. }, _) => count.size(),
+            })
+            .sum()
+    }
+}
+
+/// Reads a PLY file's triangles.
+pub fn parse_ply(bytes: &[u8]) -> Outcome<Mesh> {
+    let (format, elements, body) = parse_header(bytes)?;
+    let mut source = match format {
+        Format::Ascii => Source::Ascii(Tokens::new(&bytes[body..], body_first_line(bytes, body))),
+        _ => Source::Binary(Cursor {
+            bytes,
+            at: body,
+            big: format == Format::Big,
+        }),
+    };
+    let mut mesh = Mesh::default();
+    let mut vertex_count: Option<u64> = None;
+    let mut corners: Vec<f64> = Vec::new();
+    for element in &elements {
+        let least = element.least_size(format);
+        if least == 0 {
+            continue;
+        }
+        let room = source.remaining() / least;
+        if element.count > room as u64 {
+            return Err(header_error(
+                element.line,
+                format!(
+                    "{} '{}' elements are declared, but the file has room for at most {room}",
+                    element.count, element.name
+                ),
+            ));
+        }
+        match element.name.as_str() {
+            "vertex" if vertex_count.is_none() => {
+                if element.count > u32::MAX as u64 {
+                    return Err(header_error(
+                        element.line,
+                        "too many vertices for a shape".into(),
+                    ));
+                }
+                vertex_count = Some(element.count);
+                read_vertices(&mut source, element, &mut mesh)?;
+            }
+            "face" => read_faces(&mut source, element, &mut mesh, &mut corners)?,
+            _ => {
+                for _ in 0..element.count {
+                    for property in &element.properties {
+                        skip(&mut source, &property.kind, &mut corners)?;
+                    }
+                }
+            }
+        }
+    }
+    let count = mesh.positions.len();
+    if let Some(t) = mesh
+        .triangles
+        .iter()
+        .find(|t| t.iter().any(|&v| v as usize >= count))
+    {
+        return Err(Failure::new(format!(
+            "PLY face uses vertex {}, but the file has only {count} vertices",
+            t.iter().copied().max().unwrap_or(0)
+        )));
+    }
+    Ok(mesh)
+}
+
+fn header_error(line: usize, message: String) -> Failure {
+    Failure::new(format!("PLY header line {line}: {message}"))
+}
+
+/// The format, the elements, and where the body starts.
+fn parse_header(bytes: &[u8]) -> Outcome<(Format, Vec<Element>, usize)> {
+    let mut format = None;
+    let mut elements: Vec<Element> = Vec::new();
+    let mut at = 0;
+    let mut line = 0;
+    loop {
+        line += 1;
+        let Some(length) = bytes[at..].iter().position(|&b| b == b'\n') else {
+            return Err(Failure::new("the PLY header has no end_header line")
+                .with_help("is this a PLY file?"));
+        };
+        let raw = &bytes[at..at + length];
+        at += length + 1;
+        let text = std::str::from_utf8(raw)
+            .map_err(|_| header_error(line, "the header is not text".into()))?;
+        let words: Vec<&str> = text.split_ascii_whitespace().collect();
+        if line == 1 {
+            if words != ["ply"] {
+                return Err(Failure::new(
+                    "this is not a PLY file: it does not start with 'ply'",
+                ));
+            }
+            continue;
+        }
+        match words.as_slice() {
+            [] => {}
+            ["comment", ..] | ["obj_info", ..] => {}
+            ["format", name, _version] => {
+                format = Some(match *name {
+                    "ascii" => Format::Ascii,
+                    "binary_little_endian" => Format::Little,
+                    "binary_big_endian" => Format::Big,
+                    other => return Err(header_error(line, format!("unknown format '{other}'"))),
+                });
+            }
+            ["element", name, count] => {
+                let count = count.parse::<u64>().map_err(|_| {
+                    header_error(
+                        line,
+                        format!("element count '{count}' is not a whole number"),
+                    )
+                })?;
+                elements.push(Element {
+                    name: name.to_string(),
+                    count,
+                    properties: Vec::new(),
+                    line,
+                });
+            }
+            ["property", "list", count, item, name] => {
+                let (Some(count), Some(item)) = (Scalar::parse(count), Scalar::parse(item)) else {
+                    return Err(header_error(line, format!("unknown type in '{text}'")));
+                };
+                if !count.is_integer() {
+                    return Err(header_error(
+                        line,
+                        "a list's length must have an integer type".into(),
+                    ));
+                }
+                add_property(&mut elements, line, name, Kind::List { count, item })?;
+            }
+            ["property", kind, name] => {
+                let Some(scalar) = Scalar::parse(kind) else {
+                    return Err(header_error(
+                        line,
+                        format!("unknown property type '{kind}'"),
+                    ));
+                };
+                add_property(&mut elements, line, name, Kind::Scalar(scalar))?;
+            }
+            ["end_header"] => break,
+            _ => return Err(header_error(line, format!("cannot read '{}'", text.trim()))),
+        }
+    }
+    let Some(format) = format else {
+        return Err(Failure::new("the PLY header does not say its format"));
+    };
+    Ok((format, elements, at))
+}
+
+fn add_property(elements: &mut [Element], line: usize, name: &str, kind: Kind) -> Outcome<()> {
+    let Some(element) = elements.last_mut() else {
+        return Err(header_error(
+            line,
+            "a property comes before any element".into(),
+        ));
+    };
+    element.properties.push(Property {
+        name: name.to_string(),
+        kind,
+    });
+    Ok(())
+}
+
+fn body_first_line(bytes: &[u8], body: usize) -> usize {
+    bytes[..body].iter().filter(|&&b| b == b'\n').count() + 1
+}
+
+fn read_vertices(source: &mut Source, element: &Element, mesh: &mut Mesh) -> Outcome<()> {
+    let find = |axis: &str| {
+        element
+            .properties
+            .iter()
+            .position(|p| p.name == axis && matches!(p.kind, Kind::Scalar(_)))
+    };
+    let (Some(x), Some(y), Some(z)) = (find("x"), find("y"), find("z")) else {
+        return Err(header_error(
+            element.line,
+            "the vertex element needs x, y and z properties".into(),
+        ));
+    };
+    mesh.positions.reserve(element.count as usize);
+    let mut skipped = Vec::new();
+    for _ in 0..element.count {
+        let mut p = DVec3::ZERO;
+        for (index, property) in element.properties.iter().enumerate() {
+            let Kind::Scalar(scalar) = property.kind else {
+                skip(source, &property.kind, &mut skipped)?;
+                continue;
+            };
+            let value = source.scalar(scalar)?;
+            let axis = [x, y, z].iter().position(|&a| a == index);
+            if let Some(axis) = axis {
+                if !value.is_finite() {
+                    return Err(source.error(format!("vertex coordinate {value} is not finite")));
+                }
+                p[axis] = value;
+            }
+        }
+        mesh.positions.push(p);
+    }
+    Ok(())
+}
+
+fn read_faces(
+    source: &mut Source,
+    element: &Element,
+    mesh: &mut Mesh,
+    corners: &mut Vec<f64>,
+) -> Outcome<()> {
+    let Some(indices) = element.properties.iter().position(|p| {
+        (p.name == "vertex_indices" || p.name == "vertex_index")
+            && matches!(p.kind, Kind::List { .. })
+    }) else {
+        return Err(header_error(
+            element.line,
+            "the face element needs a vertex_indices list".into(),
+        ));
+    };
+    if let Kind::List { item, .. } = element.properties[indices].kind
+        && !item.is_integer()
+    {
+        return Err(header_error(
+            element.line,
+            "face vertex indices must be integers".into(),
+        ));
+    }
+    for _ in 0..element.count {
+        for (index, property) in element.properties.iter().enumerate() {
+            skip(source, &property.kind, corners)?;
+            if index != indices {
+                continue;
+            }
+            if corners.len() < 3 {
+                return Err(source.error(format!(
+                    "a face needs at least three vertices, found {}",
+                    corners.len()
+                )));
+            }
+            let mut ids = [0u32; 3];
+            for (k, &c) in corners.iter().enumerate() {
+                if !(c >= 0.0 && c <= u32::MAX as f64) {
+                    return Err(source.error(format!("face vertex index {c} is out of range")));
+                }
+                let id = c as u32;
+                match k {
+                    0 | 1 => ids[k] = id,
+                    _ => {
+                        ids[2] = id;
+                        mesh.triangles.push(ids);
+                        ids[1] = id;
+                    }
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Reads one property; a list's items are left in `items`.
+fn skip(source: &mut Source, kind: &Kind, items: &mut Vec<f64>) -> Outcome<()> {
+    items.clear();
+    match *kind {
+        Kind::Scalar(s) => {
+            source.scalar(s)?;
+        }
+        Kind::List { count, item } => {
+            let n = source.scalar(count)?;
+            let least = match source {
+                Source::Ascii(_) => 1,
+                Source::Binary(_) => item.size(),
+            };
+            if n < 0.0 || n > (source.remaining() / least) as f64 {
+                return Err(source.error(format!("a list length of {n} does not fit in the file")));
+            }
+            for _ in 0..n as usize {
+                items.push(source.scalar(item)?);
+            }
+        }
+    }
+    Ok(())
+}
+
+enum Source<'a> {
+    Ascii(Tokens<'a>),
+    Binary(Cursor<'a>),
+}
+
+impl Source<'_> {
+    /// Bytes left (binary) or an upper bound on the tokens left (ASCII).
+    fn remaining(&self) -> usize {
+        match self {
+            Source::Ascii(t) => t.bytes.len() - t.at,
+            Source::Binary(c) => c.bytes.len() - c.at,
+        }
+    }
+
+    fn scalar(&mut self, scalar: Scalar) -> Outcome<f64> {
+        match self {
+            Source::Ascii(t) => t.scalar(scalar),
+            Source::Binary(c) => c.scalar(scalar),
+        }
+    }
+
+    fn error(&self, message: String) -> Failure {
+        match self {
+            Source::Ascii(t) => Failure::new(format!("PLY line {}: {message}", t.line)),
+            Source::Binary(c) => Failure::new(format!("PLY byte {}: {message}", c.at)),
+        }
+    }
+}
+
+struct Tokens<'a> {
+    bytes: &'a [u8],
+    at: usize,
+    line: usize,
+}
+
+impl<'a> Tokens<'a> {
+    fn new(bytes: &'a [u8], line: usize) -> Tokens<'a> {
+        Tokens { bytes, at: 0, line }
+    }
+
+    fn next(&mut self) -> Option<&'a [u8]> {
+        while self.at < self.bytes.len() && self.bytes[self.at].is_ascii_whitespace() {
+            if self.bytes[self.at] == b'\n' {
+                self.line += 1;
+            }
+            self.at += 1;
+        }
+        let start = self.at;
+        while self.at < self.bytes.len() && !self.bytes[self.at].is_ascii_whitespace() {
+            self.at += 1;
+        }
+        (self.at > start).then(|| &self.bytes[start..self.at])
+    }
+
+    fn scalar(&mut self, scalar: Scalar) -> Outcome<f64> {
+        let line = self.line;
+        let Some(token) = self.next() else {
+            return Err(Failure::new(format!(
+                "PLY line {line}: the file ends early"
+            )));
+        };
+        let text = std::str::from_utf8(token).unwrap_or("");
+        let value = if scalar.is_integer() {
+            text.parse::<i64>().ok().map(|v| v as f64)
+        } else {
+            text.parse::<f64>().ok()
+        };
+        value.ok_or_else(|| {
+            Failure::new(format!(
+                "PLY line {}: '{}' is not a number of type {scalar:?}",
+                self.line,
+                String::from_utf8_lossy(token)
+            ))
+        })
+    }
+}
+
+struct Cursor<'a> {
+    bytes: &'a [u8],
+    at: usize,
+    big: bool,
+}
+
+impl Cursor<'_> {
+    fn take<const N: usize>(&mut self) -> Outcome<[u8; N]> {
+        let Some(slice) = self.bytes.get(self.at..self.at + N) else {
+            return Err(Failure::new(format!(
+                "PLY byte {}: the file ends early",
+                self.at
+            )));
+        };
+        let mut word = [0u8; N];
+        word.copy_from_slice(slice);
+        if self.big {
+            word.reverse();
+        }
+        self.at += N;
+        Ok(word)
+    }
+
+    fn scalar(&mut self, scalar: Scalar) -> Outcome<f64> {
+        Ok(match scalar {
+            Scalar::I8 => i8::from_le_bytes(self.take()?) as f64,
+            Scalar::U8 => u8::from_le_bytes(self.take()?) as f64,
+            Scalar::I16 => i16::from_le_bytes(self.take()?) as f64,
+            Scalar::U16 => u16::from_le_bytes(self.take()?) as f64,
+            Scalar::I32 => i32::from_le_bytes(self.take()?) as f64,
+            Scalar::U32 => u32::from_le_bytes(self.take()?) as f64,
+            Scalar::F32 => f32::from_le_bytes(self.take()?) as f64,
+            Scalar::F64 => f64::from_le_bytes(self.take()?),
+        })
+    }
+}
+
+/// The mesh as binary little-endian PLY with double coordinates and uint indices.
+pub fn write_ply(mesh: &Mesh) -> Outcome<Vec<u8>> {
+    mesh.validate()?;
+    let header = format!(
+        "ply\nformat binary_little_endian 1.0\ncomment written by felt\n\
+         element vertex {}\nproperty double x\nproperty double y\nproperty double z\n\
+         element face {}\nproperty list uchar uint vertex_indices\nend_header\n",
+        mesh.positions.len(),
+        mesh.triangles.len()
+    );
+    let mut out =
+        Vec::with_capacity(header.len() + mesh.positions.len() * 24 + mesh.triangles.len() * 13);
+    out.extend_from_slice(header.as_bytes());
+    for p in &mesh.positions {
+        for c in [p.x, p.y, p.z] {
+            out.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    for t in &mesh.triangles {
+        out.push(3);
+        for v in t {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    Ok(out)
+}
