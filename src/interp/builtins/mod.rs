@@ -4,6 +4,7 @@
 mod core;
 mod fields;
 pub mod format;
+mod geometry;
 pub mod grids;
 mod math;
 mod modeling;
@@ -18,4 +19,5 @@ pub fn register_all(r: &mut Registry) {
     grids::register(r);
     modeling::register(r);
     rendering::register(r);
+    geometry::register(r);
 }
