@@ -98,6 +98,53 @@ pub fn register(r: &mut Registry) {
             Ok(Value::Field(fbm(&noise, octaves as usize, &freq, &fjump, &rough)?))
         },
     );
+    r.add(
+        "noise",
+        &[
+            "gaussiannoise(domain d, float correlation, int seed?) -> scalarfield",
+            "gaussiannoise(domain d, float correlation, int seed, bool divfree) -> vectorfield",
+        ],
+        "an FFT-synthesised Gaussian random field over d's cells (periodic; zero mean, unit \
+         variance, covariance exp(-r^2 / (2 correlation^2))); the four-argument form is a \
+         vectorfield, divergence-free when divfree is true",
+        |interp, a| {
+            let Value::Domain(d) = a.get(0)? else {
+                return Err(Failure::new("gaussiannoise needs a domain"));
+            };
+            let seed = match a.opt_int(2)? {
+                Some(s) if (0..=u32::MAX as i64).contains(&s) => s as u32,
+                Some(s) => {
+                    return Err(Failure::new(format!(
+                        "a seed is a whole number from 0 to {}, found {s}",
+                        u32::MAX
+                    )));
+                }
+                None => interp.noise_seed,
+            };
+            let vector = a.form == 1;
+            let divfree = matches!(a.opt(3), Some(Value::Bool(true)));
+            let data =
+                crate::grid::fft::gaussian_random_field(d, a.float(1)?, seed, vector, divfree)?;
+            let width = data.len();
+            let cache = crate::grid::cache::Cache::from_dense(
+                (**d).clone(),
+                width,
+                data,
+                vec![0.0; width],
+            )?
+            .with_label(format!(
+                "gaussiannoise at {}",
+                interp.location(interp.call_span)
+            ))
+            .with_profile("gaussiannoise");
+            let grid: std::sync::Arc<dyn crate::sample::GridSource> = std::sync::Arc::new(cache);
+            Ok(Value::Field(Field::from_grid(
+                grid,
+                crate::sample::Interp::Linear,
+                crate::sample::GridDerivative::Interpolant,
+            )?))
+        },
+    );
     levelsets(r);
 }
 
