@@ -418,13 +418,15 @@ fn main() {
          | vdb_ax execute / felt cachefill (perlin) | {:.1} |\n\
          | vdb_ax execute / felt cachefill (simplex, same noise family) | {:.1} |\n\
          | (vdb_ax whole − trivial whole) / felt cachefill (perlin) | {:.1} |\n\
-         | vdb_ax whole CPU / felt whole script CPU (perlin) | {:.1} |",
+         | vdb_ax whole CPU / felt whole script CPU (perlin) | {:.1} |\n\
+         | vdb_ax whole CPU / felt whole script CPU (simplex) | {:.1} |",
         ax.wall / perlin.fill,
         ax.wall / perlin.whole,
         ax.execute / perlin.fill,
         ax.execute / simplex.fill,
         (ax.wall - trivial.wall) / perlin.fill,
         ax.cpu / perlin.whole_cpu,
+        ax.cpu / simplex.whole_cpu,
     );
     println!(
         "\n## felt's f32 noise kernel alone (noise::eval_f32, values only, 1 thread)\n\
