@@ -432,22 +432,24 @@ fn main() {
         mean_alpha(&lighting_reference)
     );
     let felt = &rows[3];
-    println!("\n| ratio | value |\n|---|---|");
+    println!(
+        "\n| ratio (felt cached shadows / vdb_render) | render s | whole s | whole CPU s |\n|---|---|---|---|"
+    );
     for vdb in &rows[..3] {
         println!(
-            "| felt cached render / {} (render) | {:.2} |",
+            "| vs {} | {:.2} | {:.2} | {:.2} |",
             vdb.name,
-            felt.render / vdb.render
+            felt.render / vdb.render,
+            felt.whole / vdb.whole,
+            felt.cpu / vdb.cpu
         );
     }
+    let marched = &rows[4];
     println!(
-        "| felt cached whole / {} (whole) | {:.2} |",
-        rows[0].name,
-        felt.whole / rows[0].whole
-    );
-    println!(
-        "| felt marched render / vdb_render shadow step 1 voxel (render) | {:.2} |",
-        rows[4].render / rows[1].render
+        "| felt marched shadows vs vdb_render shadow step 1 voxel | {:.2} | {:.2} | {:.2} |",
+        marched.render / rows[1].render,
+        marched.whole / rows[1].whole,
+        marched.cpu / rows[1].cpu
     );
 
     println!(
