@@ -402,6 +402,10 @@ pub fn binary(op: BinOp, a: NodeRef, b: NodeRef) -> NodeRef {
             if cb == Some(0.0) {
                 return a;
             }
+            // a + a = 2a exactly (doubling is exact in binary floating point).
+            if a.id == b.id {
+                return binary(BinOp::Mul, constant(2.0), a);
+            }
         }
         BinOp::Sub => {
             if cb == Some(0.0) {
@@ -436,6 +440,16 @@ pub fn binary(op: BinOp, a: NodeRef, b: NodeRef) -> NodeRef {
         BinOp::Div | BinOp::GuardedDiv => {
             if cb == Some(1.0) {
                 return a;
+            }
+            // (c·x) / (c·y) = x / y for a common power-of-two factor c (exact scaling), as in
+            // the derivative of sqrt: (2x) / (2 sqrt(u)).
+            if let (Op::Binary(BinOp::Mul, c1, x), Op::Binary(BinOp::Mul, c2, y)) = (&a.op, &b.op)
+                && let (Some(k1), Some(k2)) = (c1.constant(), c2.constant())
+                && k1 == k2
+                && k1 != 0.0
+                && k1.abs().log2().fract() == 0.0
+            {
+                return binary(op, x.clone(), y.clone());
             }
             if ca == Some(0.0) {
                 return constant(0.0);

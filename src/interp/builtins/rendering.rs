@@ -25,7 +25,7 @@ const RENDER_OPTIONS: &str = "vectorfield color?, vectorfield emission?, camera 
     light[] lights?, KAPPA kappa?, float step?, int width?, int height?, int spp?, int seed?, \
     domain bounds?, float threshold?, float phase?, vector phase2?, scalarfield holdout?, \
     vector ambient?, int multiscatter?, bool adaptive?, string[] aovs?, string shadows?, \
-    float powder?";
+    float powder?, float shadowcell?";
 
 const COLOR: usize = 2;
 const EMISSION: usize = 3;
@@ -48,6 +48,7 @@ const ADAPTIVE: usize = 19;
 const AOVS: usize = 20;
 const SHADOWS: usize = 21;
 const POWDER: usize = 22;
+const SHADOW_CELL: usize = 23;
 
 pub fn register(r: &mut Registry) {
     r.add(
@@ -267,6 +268,22 @@ fn run_render(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
                     "shadows must be \"cache\" or \"march\", found \"{other}\""
                 )));
             }
+        };
+    }
+    if let Some(cell) = opt_float(&a, SHADOW_CELL)? {
+        if !(cell.is_finite() && cell > 0.0) {
+            return Err(Failure::new(format!(
+                "shadowcell must be a positive length, found {cell}"
+            )));
+        }
+        if settings.shadows == Shadows::March {
+            return Err(Failure::new(
+                "shadowcell sets the light cache; it has no meaning with shadows = \"march\"",
+            ));
+        }
+        settings.shadows = Shadows::Cache {
+            cell_size: Some(cell),
+            method: TransmissivityMethod::Auto,
         };
     }
     let scene = Scene {
