@@ -10,5 +10,6 @@
 pub mod failure;
 pub mod field;
 pub mod grid;
+pub mod render;
 pub mod sample;
 pub mod syntax;

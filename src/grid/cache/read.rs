@@ -1,0 +1,406 @@
+//! Reading a cache: interpolated values, exact gradients of the interpolant, and ranges.
+//!
+//! A point is mapped to the domain's continuous cell-index coordinates, `interp` builds one
+//! stencil per axis, and the stencil's cells are read from at most 2×2×2 bricks (a stencil of
+//! four cells never spans more than two bricks along an axis), each filled on first touch.
+//! The one key decision: the per-point work is generic over the number of components and, for
+//! the common stencil shapes, over the stencil length, so the inner loops have fixed trip
+//! counts and no per-point dispatch; and a stencil that lies inside one brick (most linear
+//! ones, about a quarter of cubic ones) is read from that brick with fixed strides, without
+//! the table of bricks. Outside the domain box a point reads the background and a zero
+//! gradient.
+//!
+//! `range` reports what the *interpolant* can reach, not only the stored samples: cubic weights
+//! can be negative and the border extrapolates, so the samples' range is widened around its
+//! midpoint by the largest sum of absolute weights that can occur in the region (see
+//! `interp`). A region whose samples all equal one value gets exactly that value, so empty
+//! space stays exactly empty.
+
+#[cfg(test)]
+mod tests;
+
+use super::{BRICK, Cache, MAX_WIDTH};
+use crate::grid::interp::{AxisStencil, BORDER_WEIGHT_BOUND, CUBIC_WEIGHT_BOUND, axis_stencil};
+use crate::sample::{Aabb, GridSource, Interp};
+use glam::{BVec3, DVec3};
+
+/// The cells one point reads, resolved to brick storage.
+struct Stencil<'a> {
+    axes: [AxisStencil; 3],
+    /// Per axis and stencil entry: which of the (at most two) bricks along the axis holds the
+    /// cell, as an offset into `bricks` (steps 1, 2, 4 for x, y, z).
+    brick_of: [[usize; 4]; 3],
+    /// Per axis and stencil entry: the cell's offset within its brick (steps 1, 8, 64).
+    offset: [[usize; 4]; 3],
+    /// The bricks, indexed `x + 2 (y + 2 z)` by brick step.
+    bricks: [&'a [f32]; 8],
+}
+
+const BRICK_STEP: [usize; 3] = [1, 2, 4];
+const CELL_STEP: [usize; 3] = [1, BRICK, BRICK * BRICK];
+
+impl Cache {
+    /// Continuous cell-index coordinates of a world point inside the domain box.
+    #[inline]
+    fn index_coords(&self, p: DVec3) -> Option<DVec3> {
+        let local = self.to_local * (p - self.domain.origin);
+        let inside = local.cmpge(DVec3::ZERO).all() && local.cmple(self.domain.lengths).all();
+        inside.then(|| local / self.domain.cell - DVec3::splat(0.5))
+    }
+
+    /// Interpolates at index coordinates `u`: the value and, when `GRADIENT`, its derivatives
+    /// with respect to the index coordinates.
+    #[inline(always)]
+    fn read_point<const W: usize, const GRADIENT: bool>(
+        &self,
+        interp: Interp,
+        u: DVec3,
+        value: &mut [f64; W],
+        gradient: &mut [[f64; 3]; W],
+    ) {
+        let cells = self.shape.cells;
+        let axes = [
+            axis_stencil(interp, u.x, cells[0]),
+            axis_stencil(interp, u.y, cells[1]),
+            axis_stencil(interp, u.z, cells[2]),
+        ];
+        let first = axes.map(|axis| axis.start / BRICK);
+        let last = axes.map(|axis| (axis.start + axis.len - 1) / BRICK);
+        if first != last {
+            let stencil = self.stencil(axes);
+            return Cache::interpolate::<W, GRADIENT>(&stencil, value, gradient);
+        }
+        // Most stencils lie inside one brick: read it with fixed strides.
+        let brick = self.brick_values(self.shape.brick_index(first));
+        let base = axes.map(|axis| axis.start % BRICK);
+        let base = base[0] + BRICK * (base[1] + BRICK * base[2]);
+        match axes.map(|axis| axis.len) {
+            [2, 2, 2] => {
+                Cache::accumulate_within::<W, GRADIENT, 2>(&axes, brick, base, value, gradient)
+            }
+            [4, 4, 4] => {
+                Cache::accumulate_within::<W, GRADIENT, 4>(&axes, brick, base, value, gradient)
+            }
+            _ => Cache::accumulate_within::<W, GRADIENT, 0>(&axes, brick, base, value, gradient),
+        }
+    }
+
+    /// The stencil sum when every cell lies in `brick`, from local cell `base`; `LEN` as for
+    /// `accumulate`. Same terms in the same order as `accumulate`.
+    #[inline(always)]
+    fn accumulate_within<const W: usize, const GRADIENT: bool, const LEN: usize>(
+        axes: &[AxisStencil; 3],
+        brick: &[f32],
+        base: usize,
+        value: &mut [f64; W],
+        gradient: &mut [[f64; 3]; W],
+    ) {
+        let [sx, sy, sz] = axes;
+        let len = |axis: &AxisStencil| if LEN == 0 { axis.len } else { LEN };
+        for kz in 0..len(sz) {
+            for ky in 0..len(sy) {
+                let weight_yz = sy.weight[ky] * sz.weight[kz];
+                let slope_y = sy.slope[ky] * sz.weight[kz];
+                let slope_z = sy.weight[ky] * sz.slope[kz];
+                let row = (base + BRICK * (ky + BRICK * kz)) * W;
+                let row = &brick[row..row + len(sx) * W];
+                for kx in 0..len(sx) {
+                    let cell = &row[kx * W..kx * W + W];
+                    let weight = sx.weight[kx] * weight_yz;
+                    for c in 0..W {
+                        let sample = f64::from(cell[c]);
+                        value[c] += weight * sample;
+                        if GRADIENT {
+                            gradient[c][0] += sx.slope[kx] * weight_yz * sample;
+                            gradient[c][1] += sx.weight[kx] * slope_y * sample;
+                            gradient[c][2] += sx.weight[kx] * slope_z * sample;
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Resolves a stencil that spans bricks.
+    fn stencil(&self, axes: [AxisStencil; 3]) -> Stencil<'_> {
+        let mut brick_of = [[0; 4]; 3];
+        let mut offset = [[0; 4]; 3];
+        let mut first = [0; 3];
+        let mut span = [0; 3];
+        for a in 0..3 {
+            let axis = &axes[a];
+            first[a] = axis.start / BRICK;
+            span[a] = (axis.start + axis.len - 1) / BRICK - first[a];
+            for k in 0..axis.len {
+                let cell = axis.start + k;
+                brick_of[a][k] = (cell / BRICK - first[a]) * BRICK_STEP[a];
+                offset[a][k] = (cell % BRICK) * CELL_STEP[a];
+            }
+        }
+        let mut bricks = [&self.background_brick[..]; 8];
+        for dz in 0..=span[2] {
+            for dy in 0..=span[1] {
+                for dx in 0..=span[0] {
+                    let index =
+                        self.shape
+                            .brick_index([first[0] + dx, first[1] + dy, first[2] + dz]);
+                    bricks[dx + 2 * (dy + 2 * dz)] = self.brick_values(index);
+                }
+            }
+        }
+        Stencil {
+            axes,
+            brick_of,
+            offset,
+            bricks,
+        }
+    }
+
+    /// Accumulates the interpolated value and, when `GRADIENT`, its derivatives with respect
+    /// to the three index coordinates, over a stencil that spans bricks.
+    fn interpolate<const W: usize, const GRADIENT: bool>(
+        stencil: &Stencil<'_>,
+        value: &mut [f64; W],
+        gradient: &mut [[f64; 3]; W],
+    ) {
+        // The common shapes get loops of fixed length, which the compiler unrolls; the sums
+        // are taken in the same order either way.
+        match [0, 1, 2].map(|a| stencil.axes[a].len) {
+            [2, 2, 2] => Cache::accumulate::<W, GRADIENT, 2>(stencil, value, gradient),
+            [4, 4, 4] => Cache::accumulate::<W, GRADIENT, 4>(stencil, value, gradient),
+            _ => Cache::accumulate::<W, GRADIENT, 0>(stencil, value, gradient),
+        }
+    }
+
+    /// The sum over the stencil; `LEN` is the stencil length on every axis, or 0 for lengths
+    /// read from the stencil.
+    #[inline(always)]
+    fn accumulate<const W: usize, const GRADIENT: bool, const LEN: usize>(
+        stencil: &Stencil<'_>,
+        value: &mut [f64; W],
+        gradient: &mut [[f64; 3]; W],
+    ) {
+        let [sx, sy, sz] = &stencil.axes;
+        let len = |axis: &AxisStencil| if LEN == 0 { axis.len } else { LEN };
+        for kz in 0..len(sz) {
+            let brick_z = stencil.brick_of[2][kz];
+            let offset_z = stencil.offset[2][kz];
+            for ky in 0..len(sy) {
+                let weight_yz = sy.weight[ky] * sz.weight[kz];
+                let slope_y = sy.slope[ky] * sz.weight[kz];
+                let slope_z = sy.weight[ky] * sz.slope[kz];
+                let brick_yz = brick_z + stencil.brick_of[1][ky];
+                let offset_yz = offset_z + stencil.offset[1][ky];
+                for kx in 0..len(sx) {
+                    let brick = stencil.bricks[brick_yz + stencil.brick_of[0][kx]];
+                    let at = (offset_yz + stencil.offset[0][kx]) * W;
+                    let cell = &brick[at..at + W];
+                    let weight = sx.weight[kx] * weight_yz;
+                    for c in 0..W {
+                        let sample = f64::from(cell[c]);
+                        value[c] += weight * sample;
+                        if GRADIENT {
+                            gradient[c][0] += sx.slope[kx] * weight_yz * sample;
+                            gradient[c][1] += sx.weight[kx] * slope_y * sample;
+                            gradient[c][2] += sx.weight[kx] * slope_z * sample;
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    fn sample_block<const W: usize>(
+        &self,
+        interp: Interp,
+        xs: &[f64],
+        ys: &[f64],
+        zs: &[f64],
+        out: &mut [f64],
+    ) {
+        let n = xs.len();
+        let mut unused = [[0.0; 3]; W];
+        for i in 0..n {
+            let mut value = [0.0; W];
+            match self.index_coords(DVec3::new(xs[i], ys[i], zs[i])) {
+                Some(u) => self.read_point::<W, false>(interp, u, &mut value, &mut unused),
+                None => value.copy_from_slice(&self.background),
+            }
+            for c in 0..W {
+                out[c * n + i] = value[c];
+            }
+        }
+    }
+
+    fn gradient_block<const W: usize>(
+        &self,
+        interp: Interp,
+        xs: &[f64],
+        ys: &[f64],
+        zs: &[f64],
+        out: &mut [f64],
+    ) {
+        let n = xs.len();
+        // d(index u_a)/d(world x_j) = rotation[a][j] / cell_a: the chain rule through the
+        // domain's placement, applied once per point to the index-space derivative.
+        let rotation = self.domain.rotation;
+        let inverse_cell = self.domain.cell.recip();
+        for i in 0..n {
+            let mut value = [0.0; W];
+            let mut gradient = [[0.0; 3]; W];
+            if let Some(u) = self.index_coords(DVec3::new(xs[i], ys[i], zs[i])) {
+                self.read_point::<W, true>(interp, u, &mut value, &mut gradient);
+            }
+            for (c, g) in gradient.iter().enumerate() {
+                let world = rotation * (DVec3::from_array(*g) * inverse_cell);
+                for j in 0..3 {
+                    out[(c * 3 + j) * n + i] = world[j];
+                }
+            }
+        }
+    }
+
+    /// Per axis: the index-space interval of `region` clamped to the domain box, or `None`
+    /// when the region misses the box; and whether the region reaches outside the domain.
+    fn region_in_index_space(&self, region: &Aabb) -> (Option<[(f64, f64); 3]>, bool) {
+        let cells = self.shape.cells.map(|n| n as f64);
+        let (lo, hi, leaves) = if region.is_finite() {
+            let mut lo = DVec3::splat(f64::INFINITY);
+            let mut hi = DVec3::splat(f64::NEG_INFINITY);
+            let mut leaves = false;
+            for n in 0..8 {
+                let pick = BVec3::new(n & 1 != 0, n & 2 != 0, n & 4 != 0);
+                let corner = DVec3::select(pick, region.max, region.min);
+                leaves |= self.index_coords(corner).is_none();
+                let u = self.to_local * (corner - self.domain.origin) / self.domain.cell
+                    - DVec3::splat(0.5);
+                lo = lo.min(u);
+                hi = hi.max(u);
+            }
+            (lo, hi, leaves)
+        } else {
+            (
+                DVec3::splat(f64::NEG_INFINITY),
+                DVec3::splat(f64::INFINITY),
+                true,
+            )
+        };
+        let mut axes = [(0.0, 0.0); 3];
+        for a in 0..3 {
+            let low = lo[a].max(-0.5);
+            let high = hi[a].min(cells[a] - 0.5);
+            if low.partial_cmp(&high).is_none_or(|order| order.is_gt()) {
+                return (None, leaves);
+            }
+            axes[a] = (low, high);
+        }
+        (Some(axes), leaves)
+    }
+}
+
+impl GridSource for Cache {
+    fn width(&self) -> usize {
+        self.width
+    }
+
+    fn identity(&self) -> u64 {
+        self.identity
+    }
+
+    fn label(&self) -> String {
+        self.label.clone()
+    }
+
+    fn sample(&self, interp: Interp, xs: &[f64], ys: &[f64], zs: &[f64], out: &mut [f64]) {
+        match self.width {
+            1 => self.sample_block::<1>(interp, xs, ys, zs, out),
+            3 => self.sample_block::<3>(interp, xs, ys, zs, out),
+            _ => self.sample_block::<MAX_WIDTH>(interp, xs, ys, zs, out),
+        }
+    }
+
+    fn sample_gradient(&self, interp: Interp, xs: &[f64], ys: &[f64], zs: &[f64], out: &mut [f64]) {
+        match self.width {
+            1 => self.gradient_block::<1>(interp, xs, ys, zs, out),
+            3 => self.gradient_block::<3>(interp, xs, ys, zs, out),
+            _ => self.gradient_block::<MAX_WIDTH>(interp, xs, ys, zs, out),
+        }
+    }
+
+    fn bounds(&self) -> Aabb {
+        self.domain.bounds()
+    }
+
+    fn background(&self) -> Vec<f64> {
+        self.background.clone()
+    }
+
+    fn cell_size(&self) -> DVec3 {
+        self.domain.cell
+    }
+
+    /// Fills the bricks whose cells the interpolant reads inside `region`, on the calling
+    /// thread (no rayon: this may run inside another cache's brick fill).
+    fn range(&self, region: &Aabb) -> Vec<(f64, f64)> {
+        let background: Vec<(f64, f64)> = self.background.iter().map(|&b| (b, b)).collect();
+        if region.is_empty() {
+            return background;
+        }
+        let (axes, leaves) = self.region_in_index_space(region);
+        let Some(axes) = axes else {
+            return background;
+        };
+        let mut first_brick = [0; 3];
+        let mut last_brick = [0; 3];
+        let mut spread = 1.0;
+        for (a, &(low, high)) in axes.iter().enumerate() {
+            let cells = self.shape.cells[a];
+            // A cubic stencil reads one cell below floor(u) and two above.
+            let first = (low.floor() - 1.0).max(0.0) as usize;
+            let last = ((high.floor() + 2.0).max(0.0) as usize).min(cells - 1);
+            first_brick[a] = first / BRICK;
+            last_brick[a] = last / BRICK;
+            spread *= if cells == 1 {
+                1.0
+            } else if low >= 0.0 && high <= (cells - 1) as f64 {
+                CUBIC_WEIGHT_BOUND
+            } else {
+                BORDER_WEIGHT_BOUND
+            };
+        }
+        let mut samples = vec![(f64::INFINITY, f64::NEG_INFINITY); self.width];
+        for bz in first_brick[2]..=last_brick[2] {
+            for by in first_brick[1]..=last_brick[1] {
+                for bx in first_brick[0]..=last_brick[0] {
+                    let brick = self.brick(self.shape.brick_index([bx, by, bz]));
+                    for (c, (low, high)) in samples.iter_mut().enumerate() {
+                        *low = low.min(f64::from(brick.range[c].0));
+                        *high = high.max(f64::from(brick.range[c].1));
+                    }
+                }
+            }
+        }
+        samples
+            .into_iter()
+            .zip(&self.background)
+            .map(|((low, high), &b)| {
+                let (low, high) = if low == high {
+                    (low, high)
+                } else if low.is_finite() && high.is_finite() {
+                    let middle = 0.5 * (low + high);
+                    // Room for the rounding of a sum of up to 64 weighted samples.
+                    let rounding = 128.0 * f64::EPSILON * spread * low.abs().max(high.abs());
+                    let radius = 0.5 * (high - low) * spread + rounding;
+                    (middle - radius, middle + radius)
+                } else {
+                    (f64::NEG_INFINITY, f64::INFINITY)
+                };
+                if leaves {
+                    (low.min(b), high.max(b))
+                } else {
+                    (low, high)
+                }
+            })
+            .collect()
+    }
+}

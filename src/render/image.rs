@@ -1,0 +1,209 @@
+//! Rendered images and the files they are written to.
+//!
+//! An `Image` holds premultiplied RGBA in linear light, one `[f32; 4]` per pixel (row-major,
+//! top row first), plus named AOV channels. `.exr` files get every channel as 32-bit float,
+//! scanline blocks with ZIP compression (every compositor reads them quickly; the `exr` crate's
+//! default, tiled RLE, is avoided). `.png` files are 8-bit previews: the premultiplied colour is
+//! clipped to [0, 1]; the alpha is raised where needed to at least the largest colour channel
+//! (emission in a thin medium can be brighter than it is opaque); the colour is divided by that
+//! alpha (PNG stores straight colour) and encoded with the sRGB curve. Composited over black
+//! such a PNG shows exactly the clipped premultiplied colour. The one key decision: files are
+//! written to a temporary file in the same directory and renamed into place, so a crash or a
+//! full disk never leaves a half-written image under the requested name.
+
+use crate::failure::{Failure, Outcome};
+use std::collections::HashSet;
+use std::io::{BufWriter, Write};
+use std::path::Path;
+
+/// A rendered image.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Image {
+    pub width: usize,
+    pub height: usize,
+    /// Premultiplied linear RGBA, `y * width + x` with `y = 0` the top row.
+    pub rgba: Vec<[f32; 4]>,
+    /// Extra channels by full name (`depth.Z`, `emission.R`, ...), each `width * height` values.
+    pub aovs: Vec<(String, Vec<f32>)>,
+}
+
+impl Image {
+    /// A transparent black image without AOVs.
+    pub fn new(width: usize, height: usize) -> Image {
+        Image {
+            width,
+            height,
+            rgba: vec![[0.0; 4]; width * height],
+            aovs: Vec::new(),
+        }
+    }
+
+    /// The AOV channel called `name`, if there is one.
+    pub fn aov(&self, name: &str) -> Option<&[f32]> {
+        self.aovs
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| v.as_slice())
+    }
+
+    fn check(&self) -> Outcome<()> {
+        let pixels = self.width * self.height;
+        if self.width == 0 || self.height == 0 {
+            return Err(Failure::new(format!(
+                "cannot write an image of {} x {} pixels",
+                self.width, self.height
+            )));
+        }
+        if self.rgba.len() != pixels {
+            return Err(Failure::new(format!(
+                "image of {} x {} pixels has {} colour values",
+                self.width,
+                self.height,
+                self.rgba.len()
+            )));
+        }
+        let mut names: HashSet<&str> = ["R", "G", "B", "A"].into_iter().collect();
+        for (name, values) in &self.aovs {
+            if name.is_empty() || !names.insert(name) {
+                return Err(Failure::new(format!(
+                    "image channel name '{name}' is empty or used twice"
+                )));
+            }
+            if values.len() != pixels {
+                return Err(Failure::new(format!(
+                    "image channel '{name}' has {} values for {pixels} pixels",
+                    values.len()
+                )));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Writes `image` to `path`: OpenEXR for `.exr`, an 8-bit preview for `.png`.
+pub fn write_image(path: &Path, image: &Image) -> Outcome<()> {
+    image.check()?;
+    let extension = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase());
+    match extension.as_deref() {
+        Some("exr") => atomically(path, |file| write_exr(file, image)),
+        Some("png") => atomically(path, |file| write_png(file, image)),
+        _ => Err(Failure::new(format!(
+            "cannot tell the image format of '{}'",
+            path.display()
+        ))
+        .with_help("end the file name in .exr (full float channels) or .png (8-bit preview)")),
+    }
+}
+
+/// Writes through a temporary file beside `path`, then renames it into place.
+fn atomically(
+    path: &Path,
+    write: impl FnOnce(&mut std::fs::File) -> Result<(), String>,
+) -> Outcome<()> {
+    let shown = path.display();
+    let directory = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let mut temporary = tempfile::Builder::new()
+        .prefix(".felt-image-")
+        .suffix(".tmp")
+        .tempfile_in(directory)
+        .map_err(|e| Failure::new(format!("cannot write image '{shown}': {e}")))?;
+    write(temporary.as_file_mut())
+        .map_err(|e| Failure::new(format!("cannot write image '{shown}': {e}")))?;
+    temporary
+        .as_file()
+        .sync_all()
+        .map_err(|e| Failure::new(format!("cannot write image '{shown}': {e}")))?;
+    temporary
+        .persist(path)
+        .map_err(|e| Failure::new(format!("cannot write image '{shown}': {}", e.error)))?;
+    Ok(())
+}
+
+fn write_exr(file: &mut std::fs::File, image: &Image) -> Result<(), String> {
+    use exr::prelude::{
+        AnyChannel, AnyChannels, Encoding, FlatSamples, Image as ExrImage, Layer, LayerAttributes,
+        WritableImage,
+    };
+    let component = |c: usize| FlatSamples::F32(image.rgba.iter().map(|p| p[c]).collect());
+    let mut channels = vec![
+        AnyChannel::new("R", component(0)),
+        AnyChannel::new("G", component(1)),
+        AnyChannel::new("B", component(2)),
+        AnyChannel::new("A", component(3)),
+    ];
+    for (name, values) in &image.aovs {
+        channels.push(AnyChannel::new(
+            name.as_str(),
+            FlatSamples::F32(values.clone()),
+        ));
+    }
+    let layer = Layer::new(
+        (image.width, image.height),
+        LayerAttributes::default(),
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(channels.into()),
+    );
+    ExrImage::from_layer(layer)
+        .write()
+        .to_buffered(BufWriter::new(file))
+        .map_err(|e| e.to_string())
+}
+
+/// The sRGB transfer curve (OETF) from linear [0, 1].
+fn srgb(linear: f32) -> f32 {
+    if linear <= 0.003_130_8 {
+        12.92 * linear
+    } else {
+        1.055 * linear.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// The 8-bit straight-alpha sRGB pixel for a premultiplied linear one (see the module notes).
+pub fn preview_pixel(rgba: [f32; 4]) -> [u8; 4] {
+    let clip = |v: f32| {
+        if v.is_finite() {
+            v.clamp(0.0, 1.0)
+        } else {
+            0.0
+        }
+    };
+    let color = [clip(rgba[0]), clip(rgba[1]), clip(rgba[2])];
+    let alpha = clip(rgba[3]).max(color[0]).max(color[1]).max(color[2]);
+    if alpha == 0.0 {
+        return [0, 0, 0, 0];
+    }
+    let byte = |v: f32| (v * 255.0).round().clamp(0.0, 255.0) as u8;
+    [
+        byte(srgb((color[0] / alpha).min(1.0))),
+        byte(srgb((color[1] / alpha).min(1.0))),
+        byte(srgb((color[2] / alpha).min(1.0))),
+        byte(alpha),
+    ]
+}
+
+fn write_png(file: &mut std::fs::File, image: &Image) -> Result<(), String> {
+    let (width, height) = (
+        u32::try_from(image.width).map_err(|e| e.to_string())?,
+        u32::try_from(image.height).map_err(|e| e.to_string())?,
+    );
+    let mut buffer = BufWriter::new(file);
+    let mut encoder = png::Encoder::new(&mut buffer, width, height);
+    encoder.set_color(png::ColorType::Rgba);
+    encoder.set_depth(png::BitDepth::Eight);
+    encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+    let mut writer = encoder.write_header().map_err(|e| e.to_string())?;
+    let bytes: Vec<u8> = image.rgba.iter().flat_map(|p| preview_pixel(*p)).collect();
+    writer.write_image_data(&bytes).map_err(|e| e.to_string())?;
+    writer.finish().map_err(|e| e.to_string())?;
+    buffer.flush().map_err(|e| e.to_string())
+}
+
+#[cfg(test)]
+#[path = "image_tests.rs"]
+mod tests;

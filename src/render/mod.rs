@@ -1,0 +1,305 @@
+//! Rendering: the built-in raymarcher and the image writers.
+//!
+//! `render` takes a `Scene` (density, optional colour, emission and holdout fields, a camera,
+//! lights) and `RenderSettings`, and returns an `Image`; `write_image` stores it as OpenEXR or a
+//! PNG preview. Fields are consumed only through `sample::FieldSampler`, in blocks. The pieces,
+//! one physical idea each: `camera` (rays), `light` (sources), `phase` (angular scattering),
+//! `transmittance` and `sweep` (light reaching each point through the volume, precomputed on
+//! grids), `lighting` (illumination at a sample), `space` (empty-space skipping), `march` (the
+//! integrator, eqs. 1.1–1.4 of the course notes), `adaptive` (step control), `tile` (ray state
+//! and pixels), `settings`, `image` (files).
+//!
+//! The one key decision: the march needs a finite box — the `bounds` setting, else the
+//! density's own bounds — and everything (step default, shadow grids, empty-space bricks) is
+//! laid over that box in world units.
+
+mod adaptive;
+pub mod camera;
+pub mod image;
+pub mod light;
+mod lighting;
+mod march;
+pub mod phase;
+pub mod settings;
+mod space;
+mod sweep;
+mod tile;
+pub mod transmittance;
+
+#[cfg(test)]
+mod testing;
+#[cfg(test)]
+mod tests;
+
+pub use camera::Camera;
+pub use image::{Image, write_image};
+pub use light::{DistantLight, Light, PointLight};
+pub use phase::Phase;
+pub use settings::{Adaptive, Aovs, MultiScatter, RenderSettings, Shadows};
+pub use tile::MarchStats;
+pub use transmittance::{TransmissivityMethod, transmissivity};
+
+use crate::failure::{Failure, Outcome};
+use crate::grid::domain::memory_limit;
+use crate::sample::{Aabb, FieldSampler};
+use lighting::Illumination;
+use march::{Frame, Worker, tile_side};
+use rayon::prelude::*;
+use space::Occupancy;
+use std::io::IsTerminal;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+use tile::TileOutput;
+
+/// What to render.
+pub struct Scene<'a> {
+    /// Scalar density (width 1); negative values count as zero.
+    pub density: &'a dyn FieldSampler,
+    /// Colour (width 3) scattering the light; white when absent.
+    pub color: Option<&'a dyn FieldSampler>,
+    /// Light emitted per unit length (width 3), for fire.
+    pub emission: Option<&'a dyn FieldSampler>,
+    /// Holdout transmittance (width 1): how visible each point is to the camera, 1 = fully.
+    pub holdout: Option<&'a dyn FieldSampler>,
+    pub camera: Camera,
+    pub lights: Vec<Light>,
+}
+
+/// What a render computed, for `--profile`.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RenderStats {
+    pub march: MarchStats,
+    /// The step used, in world units.
+    pub step: f64,
+    /// Empty-space bricks, and how many were proven empty.
+    pub bricks: usize,
+    pub empty_bricks: usize,
+    /// Seconds spent on shadow grids and on the march.
+    pub shadow_seconds: f64,
+    pub march_seconds: f64,
+}
+
+/// Renders `scene` with `settings`.
+pub fn render(scene: &Scene, settings: &RenderSettings) -> Outcome<Image> {
+    render_with_stats(scene, settings).map(|(image, _)| image)
+}
+
+/// Renders and reports what was computed.
+pub fn render_with_stats(
+    scene: &Scene,
+    settings: &RenderSettings,
+) -> Outcome<(Image, RenderStats)> {
+    settings.validate()?;
+    check_width("density", scene.density, 1)?;
+    for (what, field, width) in [
+        ("color", scene.color, 3),
+        ("emission", scene.emission, 3),
+        ("holdout", scene.holdout, 1),
+    ] {
+        if let Some(f) = field {
+            check_width(what, f, width)?;
+        }
+    }
+    let bounds = march_box(scene, settings)?;
+    let step = settings.step.unwrap_or(bounds.size().max_element() / 256.0);
+    let smallest = settings.adaptive.map_or(step, |a| a.min_step.min(step));
+    let diagonal = bounds.size().length();
+    if diagonal / smallest > settings::MAX_STEPS_PER_RAY {
+        return Err(Failure::new(format!(
+            "a step of {smallest} needs {:.0} samples to cross the {diagonal:.3}-unit render box",
+            diagonal / smallest
+        ))
+        .with_help("use a larger step (it is a world-space length) or a smaller bounds box"));
+    }
+    let aov_names = aov_names(settings, scene.lights.len());
+    let pixels = settings.width as f64 * settings.height as f64;
+    let bytes = pixels * (16.0 + 4.0 * aov_names.len() as f64);
+    if bytes > memory_limit() as f64 {
+        return Err(Failure::new(format!(
+            "a {} x {} image with {} channels needs {:.1} GiB, over the memory limit",
+            settings.width,
+            settings.height,
+            4 + aov_names.len(),
+            bytes / (1u64 << 30) as f64
+        ))
+        .with_help("render a smaller image or fewer AOVs"));
+    }
+
+    let started = Instant::now();
+    let illumination = Illumination::new(scene.density, &scene.lights, settings, bounds, step)?;
+    let shadow_seconds = started.elapsed().as_secs_f64();
+    let occupancy = Occupancy::build(scene.density, scene.emission, bounds, step);
+    let frame = Frame {
+        density: scene.density,
+        color: scene.color,
+        emission: scene.emission,
+        holdout: scene.holdout,
+        camera: &scene.camera,
+        raster: scene.camera.raster(settings.width, settings.height),
+        bounds,
+        occupancy: &occupancy,
+        illumination: &illumination,
+        settings,
+        step,
+        aov_count: aov_names.len(),
+    };
+    let side = tile_side(settings.spp);
+    let tiles = settings.width.div_ceil(side) * settings.height.div_ceil(side);
+    let progress = Progress::new(tiles as u64);
+    let marching = Instant::now();
+    let outputs: Vec<TileOutput> = (0..tiles)
+        .into_par_iter()
+        .map_init(
+            || Worker::new(&frame),
+            |worker, tile| {
+                let out = worker.tile(&frame, tile);
+                progress.tick();
+                out
+            },
+        )
+        .collect();
+    progress.finish();
+    let march_seconds = marching.elapsed().as_secs_f64();
+
+    let mut image = Image::new(settings.width, settings.height);
+    image.aovs = aov_names
+        .into_iter()
+        .map(|name| (name, vec![0.0; settings.width * settings.height]))
+        .collect();
+    let mut stats = RenderStats {
+        step,
+        bricks: occupancy.bricks(),
+        empty_bricks: occupancy.empty_bricks,
+        shadow_seconds,
+        march_seconds,
+        ..RenderStats::default()
+    };
+    let channels = image.aovs.len();
+    for tile in &outputs {
+        for ty in 0..tile.height {
+            for tx in 0..tile.width {
+                let local = ty * tile.width + tx;
+                let pixel = (tile.y0 + ty) * settings.width + tile.x0 + tx;
+                image.rgba[pixel] = tile.rgba[local];
+                for (c, (_, values)) in image.aovs.iter_mut().enumerate() {
+                    values[pixel] = tile.aovs[local * channels + c];
+                }
+            }
+        }
+        stats.march.merge(&tile.stats);
+    }
+    Ok((image, stats))
+}
+
+fn check_width(what: &str, field: &dyn FieldSampler, width: usize) -> Outcome<()> {
+    if field.width() == width {
+        return Ok(());
+    }
+    let kind = |w: usize| match w {
+        1 => "a scalar field".to_string(),
+        3 => "a vector field".to_string(),
+        9 => "a matrix field".to_string(),
+        w => format!("a field with {w} components"),
+    };
+    Err(Failure::new(format!(
+        "render {what} must be {}, got {}",
+        kind(width),
+        kind(field.width())
+    )))
+}
+
+/// The box the march covers.
+fn march_box(scene: &Scene, settings: &RenderSettings) -> Outcome<Aabb> {
+    let bounds = match settings.bounds {
+        Some(b) => b,
+        None => {
+            match scene.density.bounds() {
+                Some(b) if b.is_finite() => b,
+                _ => {
+                    return Err(Failure::new(
+                    "render cannot tell where the density is: it has no finite bounds",
+                )
+                .with_help("pass bounds = some domain, e.g. bounds = domain(origin, lengths, orientation)"));
+                }
+            }
+        }
+    };
+    if bounds.is_empty() || bounds.size().min_element() <= 0.0 {
+        return Err(Failure::new(format!(
+            "the render box from {} to {} is empty",
+            bounds.min, bounds.max
+        ))
+        .with_help("pass bounds = some domain that contains the density"));
+    }
+    Ok(bounds)
+}
+
+/// AOV channel names in the order the march writes them.
+fn aov_names(settings: &RenderSettings, lights: usize) -> Vec<String> {
+    let a = &settings.aovs;
+    let mut names = Vec::new();
+    if a.depth {
+        names.push("depth.Z".to_string());
+    }
+    if a.transmittance {
+        names.push("transmittance.Y".to_string());
+    }
+    if a.emission {
+        names.extend(["emission.R", "emission.G", "emission.B"].map(String::from));
+    }
+    if a.lights {
+        for i in 0..lights {
+            names.extend(["R", "G", "B"].map(|c| format!("light{i}.{c}")));
+        }
+    }
+    names
+}
+
+/// A progress bar on stderr, shown only on a terminal and only once a render has run for a
+/// second (short renders stay silent).
+struct Progress {
+    bar: indicatif::ProgressBar,
+    terminal: bool,
+    shown: AtomicBool,
+    started: Instant,
+}
+
+impl Progress {
+    fn new(tiles: u64) -> Progress {
+        Progress {
+            bar: indicatif::ProgressBar::hidden(),
+            terminal: std::io::stderr().is_terminal(),
+            shown: AtomicBool::new(false),
+            started: Instant::now(),
+        }
+        .with_length(tiles)
+    }
+
+    fn with_length(self, tiles: u64) -> Progress {
+        self.bar.set_length(tiles);
+        self
+    }
+
+    fn tick(&self) {
+        if self.terminal
+            && !self.shown.load(Ordering::Relaxed)
+            && self.started.elapsed() > Duration::from_secs(1)
+            && !self.shown.swap(true, Ordering::Relaxed)
+        {
+            self.bar
+                .set_draw_target(indicatif::ProgressDrawTarget::stderr());
+            if let Ok(style) = indicatif::ProgressStyle::with_template(
+                "rendering {bar:40} {percent}% ({eta} left)",
+            ) {
+                self.bar.set_style(style);
+            }
+        }
+        self.bar.inc(1);
+    }
+
+    fn finish(&self) {
+        if self.shown.load(Ordering::Relaxed) {
+            self.bar.finish_and_clear();
+        }
+    }
+}

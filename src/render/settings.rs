@@ -1,0 +1,325 @@
+//! What a render is asked to do: image size, sampling, the medium's optical constants, shadows,
+//! artistic controls and extra outputs, with the defaults a TD expects.
+//!
+//! The one key decision: every length is in world units (`step`, cell sizes, `bounds`) and
+//! `kappa` is extinction per world unit, whatever grids lie behind the fields, so a scene looks
+//! the same when a cache's resolution changes. Settings are validated up front, each failure
+//! worded in the script author's terms.
+
+use super::phase::Phase;
+use super::transmittance::TransmissivityMethod;
+use crate::failure::{Failure, Outcome};
+use crate::sample::Aabb;
+use glam::DVec3;
+
+/// How the light reaching a sample through the volume (`T_L`) is found.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Shadows {
+    /// Precomputed once per light into a grid over the marched box and read trilinearly.
+    /// `cell_size: None` takes twice the step, with at most 192 cells along the box's longest
+    /// side (96 where the light is marched from every cell, as for a point light inside the box).
+    Cache {
+        cell_size: Option<f64>,
+        method: TransmissivityMethod,
+    },
+    /// A march towards every light from every sample: slow, the reference the cache is
+    /// measured against.
+    March,
+}
+
+impl Default for Shadows {
+    fn default() -> Shadows {
+        Shadows::Cache {
+            cell_size: None,
+            method: TransmissivityMethod::Auto,
+        }
+    }
+}
+
+/// Contribution-driven step control (Svea's scheme, see `adaptive`): a step whose contribution
+/// to the pixel exceeds `tolerance` is discarded and retried at half the length (down to
+/// `min_step`); after a step contributing less than a quarter of `tolerance` the next one is
+/// twice as long (up to `max_step`). A step samples only its midpoint, so `max_step` must still
+/// resolve the thinnest feature of the density.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Adaptive {
+    pub min_step: f64,
+    pub max_step: f64,
+    /// Largest accepted change of any colour channel or of alpha in one step.
+    pub tolerance: f64,
+}
+
+impl Adaptive {
+    /// What `adaptive = true` means: `step` is the longest step, refined down to `step / 8`
+    /// where a step would change the pixel by more than 1/256 (one 8-bit level). Never coarser
+    /// than the fixed march at `step`; finer where it matters.
+    pub fn around(step: f64) -> Adaptive {
+        Adaptive {
+            min_step: step / 8.0,
+            max_step: step,
+            tolerance: 1.0 / 256.0,
+        }
+    }
+}
+
+/// An artistic approximation of multiple scattering (after Wrenninge's octaves): the light is
+/// summed over `octaves` terms, term `i` seeing the light's extinction scaled by
+/// `attenuation^i`, contributing `contribution^i` of the light and using a phase whose
+/// eccentricity is scaled by `eccentricity^i`. One octave is plain single scattering. It is not
+/// energy conserving; it brightens the inside of dense media the way bounced light does.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MultiScatter {
+    pub octaves: u32,
+    /// `a` in [0, 1]: how much thinner the medium looks to each further octave.
+    pub attenuation: f64,
+    /// `b` in [0, 1]: how much each further octave contributes.
+    pub contribution: f64,
+    /// `c` in [0, 1]: how much less directional each further octave scatters.
+    pub eccentricity: f64,
+}
+
+impl Default for MultiScatter {
+    fn default() -> MultiScatter {
+        MultiScatter {
+            octaves: 3,
+            attenuation: 0.5,
+            contribution: 0.5,
+            eccentricity: 0.5,
+        }
+    }
+}
+
+/// Extra image channels besides RGBA.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct Aovs {
+    /// `depth.Z`: opacity-weighted mean distance along the view axis; +∞ where alpha is 0.
+    pub depth: bool,
+    /// `transmittance.Y`: the remaining transmittance, averaged over the three channels.
+    pub transmittance: bool,
+    /// `emission.R/G/B`: the part of the colour emitted by the medium.
+    pub emission: bool,
+    /// `light0.R/G/B`, `light1.R/G/B`, ...: the part scattered from each light.
+    pub lights: bool,
+}
+
+/// Everything a render needs besides the scene.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderSettings {
+    pub width: usize,
+    pub height: usize,
+    /// Samples (rays) per pixel.
+    pub spp: u32,
+    /// Seeds the pixel and march jitter; the same seed gives the same image.
+    pub seed: u64,
+    /// March step in world units; `None` takes 1/256 of the marched box's longest side (about a
+    /// voxel of a 256³ cache over the box).
+    pub step: Option<f64>,
+    /// Extinction per world unit for each colour channel; a scalar is `DVec3::splat(k)`.
+    pub kappa: DVec3,
+    /// A ray stops once every channel's transmittance is below this (default 1e-3: what is
+    /// left would change alpha by at most 0.001).
+    pub threshold: f64,
+    pub phase: Phase,
+    pub multiscatter: Option<MultiScatter>,
+    /// Artistic "powder" darkening of the lit side of dense media (Horizon Zero Dawn's
+    /// Beer–powder): strength in [0, 1], strongest with the light behind the camera.
+    pub powder: Option<f64>,
+    /// Unshadowed light from all around, added to every sample's illumination.
+    pub ambient: DVec3,
+    pub adaptive: Option<Adaptive>,
+    pub shadows: Shadows,
+    /// The box to march; `None` takes the density's bounds.
+    pub bounds: Option<Aabb>,
+    pub aovs: Aovs,
+}
+
+impl Default for RenderSettings {
+    fn default() -> RenderSettings {
+        RenderSettings {
+            width: 640,
+            height: 360,
+            spp: 1,
+            seed: 0,
+            step: None,
+            kappa: DVec3::ONE,
+            threshold: 1e-3,
+            phase: Phase::Isotropic,
+            multiscatter: None,
+            powder: None,
+            ambient: DVec3::ZERO,
+            adaptive: None,
+            shadows: Shadows::default(),
+            bounds: None,
+            aovs: Aovs::default(),
+        }
+    }
+}
+
+/// The largest image side accepted.
+pub const MAX_IMAGE_SIDE: usize = 1 << 16;
+/// The most samples a single ray may take at the fixed step (or the smallest adaptive step).
+pub const MAX_STEPS_PER_RAY: f64 = 1e7;
+
+fn positive(what: &str, v: f64) -> Outcome<()> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(Failure::new(format!(
+            "{what} must be a positive number, got {v}"
+        )))
+    }
+}
+
+fn unit_interval(what: &str, v: f64) -> Outcome<()> {
+    if (0.0..=1.0).contains(&v) {
+        Ok(())
+    } else {
+        Err(Failure::new(format!(
+            "{what} must be between 0 and 1, got {v}"
+        )))
+    }
+}
+
+impl RenderSettings {
+    /// Checks everything that does not depend on the scene.
+    pub fn validate(&self) -> Outcome<()> {
+        for (what, side) in [("width", self.width), ("height", self.height)] {
+            if side == 0 || side > MAX_IMAGE_SIDE {
+                return Err(Failure::new(format!(
+                    "image {what} must be between 1 and {MAX_IMAGE_SIDE} pixels, got {side}"
+                )));
+            }
+        }
+        if self.spp == 0 || self.spp > 1 << 16 {
+            return Err(Failure::new(format!(
+                "samples per pixel must be between 1 and 65536, got {}",
+                self.spp
+            )));
+        }
+        if let Some(step) = self.step {
+            positive("step", step).map_err(|e| {
+                e.with_help(
+                    "step is a world-space length, e.g. 0.01 for a scene a few units across",
+                )
+            })?;
+        }
+        if !self.kappa.is_finite() || self.kappa.min_element() < 0.0 {
+            return Err(Failure::new(format!(
+                "kappa must be finite and non-negative in every channel, got {}",
+                self.kappa
+            ))
+            .with_help(
+                "kappa is extinction per world unit; 0 makes the medium fully transparent",
+            ));
+        }
+        if !(0.0..1.0).contains(&self.threshold) {
+            return Err(Failure::new(format!(
+                "threshold must be at least 0 and below 1, got {}",
+                self.threshold
+            )));
+        }
+        self.phase.validate()?;
+        if let Some(ms) = &self.multiscatter {
+            if ms.octaves == 0 || ms.octaves > 16 {
+                return Err(Failure::new(format!(
+                    "multiscatter octaves must be between 1 and 16, got {}",
+                    ms.octaves
+                )));
+            }
+            unit_interval("multiscatter attenuation", ms.attenuation)?;
+            unit_interval("multiscatter contribution", ms.contribution)?;
+            unit_interval("multiscatter eccentricity", ms.eccentricity)?;
+        }
+        if let Some(p) = self.powder {
+            unit_interval("powder strength", p)?;
+        }
+        if !self.ambient.is_finite() || self.ambient.min_element() < 0.0 {
+            return Err(Failure::new(format!(
+                "ambient must be finite and non-negative, got {}",
+                self.ambient
+            )));
+        }
+        if let Some(a) = &self.adaptive {
+            positive("adaptive min_step", a.min_step)?;
+            positive("adaptive max_step", a.max_step)?;
+            positive("adaptive tolerance", a.tolerance)?;
+            if a.min_step > a.max_step {
+                return Err(Failure::new(format!(
+                    "adaptive min_step {} is larger than max_step {}",
+                    a.min_step, a.max_step
+                )));
+            }
+        }
+        if let Shadows::Cache {
+            cell_size: Some(c), ..
+        } = self.shadows
+        {
+            positive("shadow cache cell size", c)?;
+        }
+        if let Some(b) = &self.bounds
+            && (!b.is_finite() || b.is_empty() || b.size().min_element() <= 0.0)
+        {
+            return Err(Failure::new(format!(
+                "render bounds must be a finite box with positive size, got {} to {}",
+                b.min, b.max
+            )));
+        }
+        Ok(())
+    }
+
+    /// Kappa that is the same in all channels lets the march compute one exponential, not three.
+    pub(crate) fn grey_kappa(&self) -> bool {
+        self.kappa.x == self.kappa.y && self.kappa.y == self.kappa.z
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_valid_and_bad_values_are_named() {
+        RenderSettings::default().validate().unwrap();
+        let bad = |f: fn(&mut RenderSettings), word: &str| {
+            let mut s = RenderSettings::default();
+            f(&mut s);
+            let err = s.validate().unwrap_err();
+            assert!(err.message.contains(word), "{}", err.message);
+        };
+        bad(|s| s.width = 0, "width");
+        bad(|s| s.height = 1 << 20, "height");
+        bad(|s| s.spp = 0, "samples per pixel");
+        bad(|s| s.step = Some(0.0), "step");
+        bad(|s| s.step = Some(f64::NAN), "step");
+        bad(|s| s.kappa = DVec3::new(1.0, -1.0, 1.0), "kappa");
+        bad(|s| s.threshold = 1.0, "threshold");
+        bad(
+            |s| s.phase = Phase::HenyeyGreenstein { g: -1.0 },
+            "eccentricity",
+        );
+        bad(|s| s.powder = Some(2.0), "powder");
+        bad(
+            |s| {
+                s.adaptive = Some(Adaptive {
+                    min_step: 0.1,
+                    max_step: 0.01,
+                    tolerance: 0.01,
+                })
+            },
+            "min_step",
+        );
+        bad(
+            |s| s.bounds = Some(Aabb::new(DVec3::ZERO, DVec3::new(1.0, 0.0, 1.0))),
+            "bounds",
+        );
+        bad(
+            |s| {
+                s.multiscatter = Some(MultiScatter {
+                    octaves: 0,
+                    ..MultiScatter::default()
+                })
+            },
+            "octaves",
+        );
+    }
+}

@@ -1,0 +1,235 @@
+//! A tile's rays: their state while marching, and the pixels they average into.
+//!
+//! State is kept as structure of arrays, one entry per sample ray (pixel-major, then sample),
+//! so the march can gather and scatter a block of rays by index. The one key decision: a pixel
+//! is the plain average (box filter) of its samples, each placed by a counter hash of
+//! `(seed, pixel, sample)`; colour is premultiplied by construction, alpha is one minus the
+//! mean transmittance over the three channels.
+
+use super::adaptive::Snapshot;
+use super::camera::jitter;
+use super::march::Frame;
+use super::space::clip_to_box;
+use glam::DVec3;
+
+/// Counts for `--profile` and tests.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MarchStats {
+    /// Sample points evaluated (density evaluations along camera rays).
+    pub samples: u64,
+    /// Adaptive steps discarded and retried shorter.
+    pub rejected: u64,
+    /// Samples where a field returned NaN or infinity (read as zero, or no holdout).
+    pub non_finite: u64,
+    pub first_non_finite: Option<DVec3>,
+}
+
+impl MarchStats {
+    pub fn merge(&mut self, other: &MarchStats) {
+        self.samples += other.samples;
+        self.rejected += other.rejected;
+        self.non_finite += other.non_finite;
+        if self.first_non_finite.is_none() {
+            self.first_non_finite = other.first_non_finite;
+        }
+    }
+}
+
+/// One tile's pixels: RGBA and `aov_count` AOV values per pixel, row-major within the tile.
+pub struct TileOutput {
+    pub x0: usize,
+    pub y0: usize,
+    pub width: usize,
+    pub height: usize,
+    pub rgba: Vec<[f32; 4]>,
+    pub aovs: Vec<f32>,
+    pub stats: MarchStats,
+}
+
+/// Per-ray state, structure of arrays.
+#[derive(Default)]
+pub struct Rays {
+    pub origin: Vec<DVec3>,
+    pub direction: Vec<DVec3>,
+    /// Index range into `runs` still to march: `(next, end)`.
+    pub span: Vec<(usize, usize)>,
+    pub runs: Vec<(f64, f64)>,
+    pub t: Vec<f64>,
+    /// Adaptive step length, and whether the ray stands at the start of a run.
+    pub h: Vec<f64>,
+    pub fresh: Vec<bool>,
+    pub u: Vec<f64>,
+    pub transmittance: Vec<DVec3>,
+    pub color: Vec<DVec3>,
+    pub emitted: Vec<DVec3>,
+    /// Per ray, one colour per light.
+    pub lit: Vec<DVec3>,
+    pub depth_weighted: Vec<f64>,
+    pub opacity: Vec<f64>,
+    /// Adaptive stepping: the state before the last accepted step, per ray (and per light).
+    pub undo: Vec<Snapshot>,
+    pub undo_lit: Vec<DVec3>,
+}
+
+impl Rays {
+    /// Remembers ray `r`'s state before a step of length `length`.
+    pub fn save(&mut self, r: usize, lights: usize, length: f64, quiet: bool) {
+        self.undo[r] = Snapshot {
+            length,
+            quiet,
+            t: self.t[r],
+            fresh: self.fresh[r],
+            transmittance: self.transmittance[r],
+            color: self.color[r],
+            emitted: self.emitted[r],
+            depth_weighted: self.depth_weighted[r],
+            opacity: self.opacity[r],
+        };
+        let lit = r * lights..(r + 1) * lights;
+        self.undo_lit[lit.clone()].copy_from_slice(&self.lit[lit]);
+    }
+
+    /// Puts ray `r` back to where it was before its last accepted step.
+    pub fn restore(&mut self, r: usize, lights: usize) {
+        let u = self.undo[r];
+        self.t[r] = u.t;
+        self.fresh[r] = u.fresh;
+        self.transmittance[r] = u.transmittance;
+        self.color[r] = u.color;
+        self.emitted[r] = u.emitted;
+        self.depth_weighted[r] = u.depth_weighted;
+        self.opacity[r] = u.opacity;
+        let lit = r * lights..(r + 1) * lights;
+        self.lit[lit.clone()].copy_from_slice(&self.undo_lit[lit]);
+        self.undo[r].length = 0.0;
+    }
+
+    /// Sets up the rays of the tile at `(x0, y0)` of size `w × h`.
+    pub fn start(&mut self, frame: &Frame<'_>, x0: usize, y0: usize, w: usize, h: usize) {
+        let s = frame.settings;
+        let spp = s.spp as usize;
+        let lights = frame.illumination.lights.len();
+        let n = w * h * spp;
+        let r = self;
+        r.origin.clear();
+        r.direction.clear();
+        r.span.clear();
+        r.runs.clear();
+        r.u.clear();
+        for py in 0..h {
+            for px in 0..w {
+                let (x, y) = (x0 + px, y0 + py);
+                let pixel = (y * s.width + x) as u64;
+                for sample in 0..spp as u64 {
+                    let (jx, jy) = if spp == 1 {
+                        (0.5, 0.5)
+                    } else {
+                        (
+                            jitter(s.seed, pixel, sample, 0),
+                            jitter(s.seed, pixel, sample, 1),
+                        )
+                    };
+                    let ray = frame.raster.ray(x, y, jx, jy);
+                    let begin = r.runs.len();
+                    if let Some((t0, t1)) = clip_to_box(&ray, &frame.bounds) {
+                        frame.occupancy.intervals(&ray, t0, t1, &mut r.runs);
+                    }
+                    r.span.push((begin, r.runs.len()));
+                    r.origin.push(ray.origin);
+                    r.direction.push(ray.direction);
+                    r.u.push(jitter(s.seed, pixel, sample, 2));
+                }
+            }
+        }
+        r.t.clear();
+        r.t.extend(
+            r.span
+                .iter()
+                .map(|&(b, e)| if b < e { r.runs[b].0 } else { 0.0 }),
+        );
+        let first = s.adaptive.map_or(frame.step, |a| a.max_step);
+        reset(&mut r.h, n, first);
+        reset(&mut r.fresh, n, true);
+        reset(&mut r.transmittance, n, DVec3::ONE);
+        reset(&mut r.color, n, DVec3::ZERO);
+        reset(&mut r.emitted, n, DVec3::ZERO);
+        reset(&mut r.lit, n * lights, DVec3::ZERO);
+        reset(&mut r.depth_weighted, n, 0.0);
+        reset(&mut r.opacity, n, 0.0);
+        if s.adaptive.is_some() {
+            reset(&mut r.undo, n, Snapshot::default());
+            reset(&mut r.undo_lit, n * lights, DVec3::ZERO);
+        }
+    }
+
+    /// Averages each pixel's samples into the tile's RGBA and AOVs.
+    pub fn finish(
+        &self,
+        frame: &Frame<'_>,
+        x0: usize,
+        y0: usize,
+        w: usize,
+        h: usize,
+        stats: MarchStats,
+    ) -> TileOutput {
+        let spp = frame.settings.spp as usize;
+        let lights = frame.illumination.lights.len();
+        let aovs = &frame.settings.aovs;
+        let inv = 1.0 / spp as f64;
+        let rays = self;
+        let mut rgba = Vec::with_capacity(w * h);
+        let mut out = Vec::with_capacity(w * h * frame.aov_count);
+        for pixel in 0..w * h {
+            let range = pixel * spp..(pixel + 1) * spp;
+            let mean = |v: &[DVec3]| v[range.clone()].iter().copied().sum::<DVec3>() * inv;
+            let color = mean(&rays.color);
+            let transmittance = mean(&rays.transmittance).element_sum() / 3.0;
+            rgba.push([
+                color.x as f32,
+                color.y as f32,
+                color.z as f32,
+                (1.0 - transmittance) as f32,
+            ]);
+            if aovs.depth {
+                let weight: f64 = rays.opacity[range.clone()].iter().sum();
+                let depth: f64 = rays.depth_weighted[range.clone()].iter().sum();
+                out.push(if weight > 0.0 {
+                    (depth / weight) as f32
+                } else {
+                    f32::INFINITY
+                });
+            }
+            if aovs.transmittance {
+                out.push(transmittance as f32);
+            }
+            if aovs.emission {
+                let e = mean(&rays.emitted);
+                out.extend([e.x as f32, e.y as f32, e.z as f32]);
+            }
+            if aovs.lights {
+                for light in 0..lights {
+                    let mut sum = DVec3::ZERO;
+                    for r in range.clone() {
+                        sum += rays.lit[r * lights + light];
+                    }
+                    let l = sum * inv;
+                    out.extend([l.x as f32, l.y as f32, l.z as f32]);
+                }
+            }
+        }
+        TileOutput {
+            x0,
+            y0,
+            width: w,
+            height: h,
+            rgba,
+            aovs: out,
+            stats,
+        }
+    }
+}
+
+fn reset<T: Clone>(v: &mut Vec<T>, n: usize, value: T) {
+    v.clear();
+    v.resize(n, value);
+}

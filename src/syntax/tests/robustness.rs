@@ -1,0 +1,315 @@
+//! No input panics, hangs or overflows the stack, and the REPL's completeness test.
+
+use std::time::{Duration, Instant};
+
+use super::*;
+use crate::syntax::parse::{MAX_NESTING, is_incomplete};
+
+/// A small deterministic generator (SplitMix64), so that failures reproduce.
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    }
+
+    fn below(&mut self, n: usize) -> usize {
+        (self.next() % n as u64) as usize
+    }
+}
+
+/// Runs `f` on a thread with a deliberately small stack, so that any recursion whose depth
+/// follows the input shows up as a crash here rather than on a user's machine.
+fn with_small_stack(f: impl FnOnce() + Send + 'static) {
+    std::thread::Builder::new()
+        .stack_size(1 << 20)
+        .spawn(f)
+        .expect("spawn test thread")
+        .join()
+        .expect("parser thread panicked");
+}
+
+/// Parses arbitrary text and checks what must hold whatever the text: a failure carries at
+/// least one error, and every error points inside the text, on character boundaries.
+fn parse_any(text: &str) -> bool {
+    match parse(FileId(0), text) {
+        Ok(_) => true,
+        Err(errors) => {
+            assert!(!errors.is_empty(), "no error for {text:?}");
+            for e in errors {
+                let (start, end) = (e.span.start as usize, e.span.end as usize);
+                assert!(start <= end && end <= text.len(), "{e:?} outside {text:?}");
+                assert!(
+                    text.is_char_boundary(start) && text.is_char_boundary(end),
+                    "{e:?}"
+                );
+            }
+            false
+        }
+    }
+}
+
+fn first_message(source: &str) -> String {
+    match parse(FileId(0), source) {
+        Ok(_) => "parsed".to_string(),
+        Err(errors) => errors[0].message.clone(),
+    }
+}
+
+#[test]
+fn random_bytes_never_panic() {
+    let mut rng = Rng(1);
+    let alphabet = b"(){}[];,.=+-*/^!<>&|\"\\ \n\tabcxyz019e_/*";
+    for round in 0..3000 {
+        let len = rng.below(64);
+        let bytes: Vec<u8> = (0..len)
+            .map(|_| {
+                if round % 2 == 0 {
+                    rng.next() as u8
+                } else {
+                    alphabet[rng.below(alphabet.len())]
+                }
+            })
+            .collect();
+        let text = String::from_utf8_lossy(&bytes);
+        parse_any(&text);
+        let _ = is_incomplete(&text);
+    }
+}
+
+#[test]
+fn random_token_soups_never_panic() {
+    const WORDS: &[&str] = &[
+        "(",
+        ")",
+        "[",
+        "]",
+        "{",
+        "}",
+        ";",
+        ",",
+        ".",
+        "=",
+        "+=",
+        "-=",
+        "*=",
+        "/=",
+        "++",
+        "--",
+        "+",
+        "-",
+        "*",
+        "/",
+        "%",
+        "^",
+        "==",
+        "!=",
+        "<",
+        "<=",
+        ">",
+        ">=",
+        "&&",
+        "||",
+        "!",
+        "if",
+        "else",
+        "for",
+        "while",
+        "break",
+        "continue",
+        "return",
+        "func",
+        "param",
+        "import",
+        "true",
+        "false",
+        "void",
+        "int",
+        "float",
+        "scalarfield",
+        "vector",
+        "domain",
+        "scalarmcache",
+        "x",
+        "y",
+        "f",
+        "12",
+        "1.5",
+        ".5",
+        "1e-3",
+        "\"s\"",
+        "/* c */",
+    ];
+    let mut rng = Rng(2);
+    let mut parsed = 0;
+    for _ in 0..3000 {
+        let len = 1 + rng.below(40);
+        let text: Vec<&str> = (0..len).map(|_| WORDS[rng.below(WORDS.len())]).collect();
+        let text = text.join(" ");
+        if parse_any(&text) {
+            parsed += 1;
+        }
+        let _ = is_incomplete(&text);
+    }
+    // Soups almost never form a program; the point is that none of them crashed.
+    assert!(parsed < 3000);
+}
+
+#[test]
+fn mutated_scripts_never_panic() {
+    let script = include_str!("course_notes.felt").as_bytes();
+    let mut rng = Rng(3);
+    for _ in 0..300 {
+        let mut bytes = script.to_vec();
+        for _ in 0..1 + rng.below(4) {
+            let at = rng.below(bytes.len());
+            match rng.below(3) {
+                0 => {
+                    bytes.remove(at);
+                }
+                1 => bytes.insert(at, b"(){};,=\"/"[rng.below(9)]),
+                _ => {
+                    let other = rng.below(bytes.len());
+                    bytes.swap(at, other);
+                }
+            }
+        }
+        let text = String::from_utf8_lossy(&bytes);
+        parse_any(&text);
+    }
+}
+
+#[test]
+fn deep_brackets_are_refused_before_parsing() {
+    with_small_stack(|| {
+        let deep = format!("x = {}1{};", "(".repeat(10_000), ")".repeat(10_000));
+        let e = parse(FileId(0), &deep).unwrap_err().remove(0);
+        assert_eq!(e.message, "expression nested too deeply");
+        // It points at the first bracket beyond the limit.
+        assert_eq!(e.span.start as usize, 4 + MAX_NESTING);
+        assert_eq!(
+            first_message(&"{".repeat(10_000)),
+            "blocks nested too deeply"
+        );
+        assert_eq!(
+            first_message(&"a[".repeat(10_000)),
+            "expression nested too deeply"
+        );
+    });
+}
+
+#[test]
+fn long_operator_chains_are_refused_without_deep_recursion() {
+    with_small_stack(|| {
+        for op in ["+", "*", "^", "&&", "<", "=="] {
+            let chain = format!("x = a{};", format!(" {op} a").repeat(10_000));
+            assert_eq!(
+                first_message(&chain),
+                "expression nested too deeply",
+                "{op}"
+            );
+        }
+        let prefixes = format!("x = {}1;", "-!".repeat(5_000));
+        assert_eq!(first_message(&prefixes), "expression nested too deeply");
+        let calls = format!("x = {}1{};", "f(".repeat(300), ")".repeat(300));
+        assert_eq!(first_message(&calls), "expression nested too deeply");
+    });
+}
+
+#[test]
+fn long_statement_chains_are_refused() {
+    with_small_stack(|| {
+        let ifs = format!("{}x = 1;", "if (a) ".repeat(10_000));
+        assert_eq!(first_message(&ifs), "statements nested too deeply");
+        let chain = format!("if (a) x; {}", "else if (a) x; ".repeat(10_000));
+        assert_eq!(first_message(&chain), "statements nested too deeply");
+        let loops = format!("{}{{}}", "while (a) for (;;) ".repeat(5_000));
+        assert_eq!(first_message(&loops), "statements nested too deeply");
+    });
+}
+
+#[test]
+fn nesting_just_inside_the_limit_parses() {
+    with_small_stack(|| {
+        let n = MAX_NESTING - 10;
+        let parens = format!("x = {}1{};", "(".repeat(n), ")".repeat(n));
+        assert_eq!(first_message(&parens), "parsed");
+        let sum = format!("x = a{};", " + a".repeat(n));
+        assert_eq!(first_message(&sum), "parsed");
+        let calls = format!("x = {}1{};", "f(".repeat(n), ")".repeat(n));
+        assert_eq!(first_message(&calls), "parsed");
+        let blocks = format!("{}{}", "{".repeat(n), "}".repeat(n));
+        assert_eq!(first_message(&blocks), "parsed");
+        let chain = format!("if (a) x; {}", "else if (a) x; ".repeat(n / 2 - 1));
+        assert_eq!(first_message(&chain), "parsed");
+        // Many statements side by side are not nesting.
+        let flat = "if (a) { x = 1; } else { y = -2; }\n".repeat(5_000);
+        assert_eq!(first_message(&flat), "parsed");
+    });
+}
+
+#[test]
+fn error_recovery_stays_fast_on_hostile_input() {
+    // A deep stack followed by a long run of tokens that recovery has to skip.
+    let hostile = format!(
+        "x = {}{}",
+        "(-".repeat(MAX_NESTING - 1),
+        "] ".repeat(100_000)
+    );
+    let start = Instant::now();
+    let errors = parse(FileId(0), &hostile).unwrap_err();
+    assert!(!errors.is_empty());
+    assert!(
+        start.elapsed() < Duration::from_secs(5),
+        "took {:?}",
+        start.elapsed()
+    );
+    let garbage = ") = ; else ] }".repeat(20_000);
+    let start = Instant::now();
+    let errors = parse(FileId(0), &garbage).unwrap_err();
+    assert!(errors.len() <= 50);
+    assert!(
+        start.elapsed() < Duration::from_secs(5),
+        "took {:?}",
+        start.elapsed()
+    );
+}
+
+#[test]
+fn incomplete_input_asks_for_more() {
+    for source in [
+        "f(a,",
+        "func void f() {\n  x = 1;",
+        "x = a[1",
+        "s = \"abc",
+        "s = \"abc\\\"",
+        "/* a comment",
+        "x = \"a\" + (",
+        "if (a) {\n  if (b) {\n  }",
+    ] {
+        assert!(is_incomplete(source), "{source:?}");
+    }
+}
+
+#[test]
+fn complete_or_unfixable_input_does_not() {
+    for source in [
+        "",
+        "x = 1;",
+        // Not finished, but no bracket is open: the parser's error is the answer.
+        "x = 1",
+        "// a comment",
+        "/* closed */",
+        "}",
+        "f(a]",
+        "x = @ (",
+        "s = \"a\\q\"; (",
+        "{ x = 1; } }",
+    ] {
+        assert!(!is_incomplete(source), "{source:?}");
+    }
+}
