@@ -1,0 +1,399 @@
+//! Fourier-space work on periodic grids: Gaussian random fields with a chosen correlation
+//! length (`gaussiannoise`), and the projection that removes the divergent part of a vector
+//! field (`fftdivfree`).
+//!
+//! The one key decision: everything happens in the Fourier domain of the whole grid, treated
+//! as one period of an infinite periodic field, in `f64`. A 3D transform is three passes of 1D
+//! transforms (`rustfft`), one per axis, with the lines of a pass spread over threads; each
+//! line is transformed the same way on any thread, and the white noise behind a random field
+//! comes from a counter-based hash of (seed, component, cell), so results are bit-identical
+//! for any thread count.
+//!
+//! Conventions. Samples sit at cell centres, component-major: component `c` of cell
+//! `(i, j, k)` is `data[c·n + i + nx·(j + ny·k)]` with `n = nx·ny·nz`. A random field has
+//! covariance `C(r) = exp(−|r|²/(2ℓ²))` for a correlation length `ℓ` in world units, so its
+//! power spectrum is proportional to `exp(−ℓ²|k|²/2)`. The spectrum is normalised on the grid
+//! itself: every sample has ensemble mean 0 and variance exactly 1 (for a vector field, the
+//! variance averaged over the three components is 1). The `k = 0` mode is removed, so the
+//! mean over the grid is 0 exactly. The spectral derivative multiplies mode `m` along an axis
+//! of `N` cells of size `h` by `i·2πm/(Nh)` (with `m` folded to `[−N/2, N/2)`), and by 0 at
+//! the Nyquist mode `m = N/2`, whose derivative would not be real.
+
+use crate::failure::{Failure, Outcome};
+use crate::grid::domain::{Domain, memory_limit};
+use glam::{DMat3, DVec3};
+use rayon::prelude::*;
+use rustfft::num_complex::Complex;
+use rustfft::{Fft, FftDirection, FftPlanner};
+use std::f64::consts::PI;
+use std::sync::Arc;
+
+type Complex64 = Complex<f64>;
+
+/// Which derivative a projection makes divergence-free.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DivergenceOperator {
+    /// The derivative of the grid's trigonometric interpolant: the spectral divergence of the
+    /// result vanishes to round-off; a finite-difference divergence is small where the field
+    /// is smooth on the scale of a cell.
+    Spectral,
+    /// Central differences, `(u[i+1] − u[i−1]) / 2h` along each axis (wrapping around): that
+    /// discrete divergence of the result vanishes to round-off. Checkerboard modes, which
+    /// central differences cannot see, are left as they are.
+    CentralDifference,
+}
+
+/// Samples at the domain's cell centres, component-major (width 1, or 3 when
+/// `divergence_free`), of a periodic Gaussian random field with covariance
+/// `exp(−|r|²/(2·correlation²))` (see the module notes for the normalisation: zero mean, unit
+/// variance per sample). A divergence-free field is three independent fields projected onto
+/// `k·û = 0` and scaled back to unit variance; its vectors are in world coordinates.
+pub fn gaussian_random_field(
+    domain: &Domain,
+    correlation: f64,
+    seed: u32,
+    divergence_free: bool,
+) -> Outcome<Vec<f32>> {
+    if !(correlation.is_finite() && correlation > 0.0) {
+        return Err(Failure::new(format!(
+            "gaussiannoise needs a positive, finite correlation length, got {correlation}"
+        )));
+    }
+    let Some(resolution) = domain.resolution else {
+        return Err(
+            Failure::new("gaussiannoise needs a domain with cells").with_help(
+                "give the domain a cell size: domain d(origin, lengths, orientation, cell)",
+            ),
+        );
+    };
+    let width = if divergence_free { 3 } else { 1 };
+    domain.check_grid_memory(width)?;
+    let grid = Grid::new(resolution, domain.cell.to_array())?;
+    // The spectra, one scratch copy for a transform pass, and the f32 result.
+    check_working_memory(grid.len, 16 * (width + 1) + 4 * width, "gaussiannoise")?;
+
+    let amplitude = grid.gaussian_amplitude(correlation);
+    let mut spectra: Vec<Vec<Complex64>> = (0..width)
+        .map(|component| {
+            let mut s: Vec<Complex64> = (0..grid.len)
+                .into_par_iter()
+                .map(|cell| Complex64::new(white_noise(seed, component, cell), 0.0))
+                .collect();
+            grid.transform(&mut s, FftDirection::Forward);
+            s.par_iter_mut().zip(&amplitude).for_each(|(v, a)| *v *= *a);
+            s
+        })
+        .collect();
+    let mut scale = 1.0 / grid.len as f64;
+    if divergence_free {
+        grid.project(&mut spectra, DivergenceOperator::Spectral);
+        scale /= grid.kept_variance(&amplitude).sqrt();
+    }
+    let mut samples: Vec<Vec<f64>> = spectra
+        .into_iter()
+        .map(|mut s| {
+            grid.transform(&mut s, FftDirection::Inverse);
+            s.into_par_iter().map(|v| v.re * scale).collect()
+        })
+        .collect();
+    if divergence_free && domain.rotation != DMat3::IDENTITY {
+        rotate_vectors(&mut samples, domain.rotation);
+    }
+    Ok(samples.concat().into_par_iter().map(|v| v as f32).collect())
+}
+
+/// Removes the divergent part of a periodic vector field sampled at cell centres
+/// (component-major, width 3, components along the grid's own axes) in place, by projection in
+/// Fourier space with the spectral derivative. Used by `fftdivfree`.
+pub fn project_divergence_free(
+    resolution: [usize; 3],
+    cell: DVec3,
+    data: &mut [f32],
+) -> Outcome<()> {
+    project_divergence_free_with(resolution, cell, data, DivergenceOperator::Spectral)
+}
+
+/// [`project_divergence_free`] with a choice of the divergence that is made to vanish.
+pub fn project_divergence_free_with(
+    resolution: [usize; 3],
+    cell: DVec3,
+    data: &mut [f32],
+    operator: DivergenceOperator,
+) -> Outcome<()> {
+    let grid = Grid::new(resolution, cell.to_array())?;
+    if data.len() != 3 * grid.len {
+        return Err(Failure::new(format!(
+            "a divergence-free projection needs 3 components of {} cells ({} values), got {}",
+            grid.len,
+            3 * grid.len,
+            data.len()
+        )));
+    }
+    if let Some(at) = data.iter().position(|v| !v.is_finite()) {
+        let (c, i) = (at / grid.len, at % grid.len);
+        let [x, y, z] = grid.cell_of(i);
+        return Err(Failure::new(format!(
+            "cannot remove the divergence of a field with a non-finite value ({}) in component {c} of cell ({x}, {y}, {z})",
+            data[at]
+        )));
+    }
+    check_working_memory(grid.len, 16 * 4, "fftdivfree")?;
+    let mut spectra: Vec<Vec<Complex64>> = data
+        .chunks(grid.len)
+        .map(|component| {
+            let mut s: Vec<Complex64> = component
+                .par_iter()
+                .map(|v| Complex64::new(*v as f64, 0.0))
+                .collect();
+            grid.transform(&mut s, FftDirection::Forward);
+            s
+        })
+        .collect();
+    grid.project(&mut spectra, operator);
+    let scale = 1.0 / grid.len as f64;
+    for (s, out) in spectra.iter_mut().zip(data.chunks_mut(grid.len)) {
+        grid.transform(s, FftDirection::Inverse);
+        out.par_iter_mut()
+            .zip(s.par_iter())
+            .for_each(|(o, v)| *o = (v.re * scale) as f32);
+    }
+    Ok(())
+}
+
+fn check_working_memory(cells: usize, bytes_per_cell: usize, what: &str) -> Outcome<()> {
+    let bytes = cells as f64 * bytes_per_cell as f64;
+    let limit = memory_limit() as f64;
+    if bytes > limit {
+        return Err(Failure::new(format!(
+            "{what} over {cells} cells needs {:.1} GiB of working memory, over the memory limit of {:.1} GiB",
+            bytes / (1u64 << 30) as f64,
+            limit / (1u64 << 30) as f64
+        ))
+        .with_help("use a larger cell size or a smaller domain, or raise the limit with --memory-limit"));
+    }
+    Ok(())
+}
+
+/// A standard normal number for one (seed, component, cell): two uniforms from a
+/// splitmix64-style hash of the counter, then Box–Muller.
+fn white_noise(seed: u32, component: usize, cell: usize) -> f64 {
+    let key = mix64(seed as u64 ^ 0x6a09_e667_f3bc_c909);
+    let counter = ((component as u64) << 42) ^ cell as u64;
+    let a = mix64(key ^ mix64(counter << 1));
+    let b = mix64(key ^ mix64((counter << 1) | 1));
+    let unit = 1.0 / (1u64 << 53) as f64;
+    let u1 = ((a >> 11) + 1) as f64 * unit; // (0, 1]: the logarithm stays finite
+    let u2 = (b >> 11) as f64 * unit;
+    (-2.0 * u1.ln()).sqrt() * (2.0 * PI * u2).cos()
+}
+
+fn mix64(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+/// Rotates the vector at every cell from the domain's frame to world axes.
+fn rotate_vectors(samples: &mut [Vec<f64>], rotation: DMat3) {
+    let [x, y, z] = samples else { return };
+    x.par_iter_mut()
+        .zip(y.par_iter_mut())
+        .zip(z.par_iter_mut())
+        .for_each(|((x, y), z)| {
+            let v = rotation * DVec3::new(*x, *y, *z);
+            (*x, *y, *z) = (v.x, v.y, v.z);
+        });
+}
+
+/// A periodic grid's shape and cell size, with the transforms and wavenumbers on it.
+struct Grid {
+    counts: [usize; 3],
+    cell: [f64; 3],
+    len: usize,
+}
+
+impl Grid {
+    fn new(counts: [usize; 3], cell: [f64; 3]) -> Outcome<Grid> {
+        if counts.contains(&0) {
+            return Err(Failure::new(format!(
+                "a grid needs at least one cell along each axis, got {counts:?}"
+            )));
+        }
+        if cell.iter().any(|h| !(h.is_finite() && *h > 0.0)) {
+            return Err(Failure::new(format!(
+                "grid cell sizes must be positive and finite, got {cell:?}"
+            )));
+        }
+        let len = counts
+            .iter()
+            .try_fold(1usize, |n, c| n.checked_mul(*c))
+            .ok_or_else(|| Failure::new(format!("a grid of {counts:?} cells is too large")))?;
+        Ok(Grid { counts, cell, len })
+    }
+
+    fn cell_of(&self, index: usize) -> [usize; 3] {
+        let [nx, ny, _] = self.counts;
+        [index % nx, index / nx % ny, index / (nx * ny)]
+    }
+
+    /// Signed wavenumbers `2πm/(Nh)` of each mode along an axis, `m` folded to `[−N/2, N/2)`.
+    fn frequencies(&self, axis: usize) -> Vec<f64> {
+        let (n, h) = (self.counts[axis], self.cell[axis]);
+        (0..n)
+            .map(|m| {
+                let folded = if 2 * m >= n {
+                    m as f64 - n as f64
+                } else {
+                    m as f64
+                };
+                2.0 * PI * folded / (n as f64 * h)
+            })
+            .collect()
+    }
+
+    /// What the operator's derivative multiplies each mode by along an axis (divided by `i`).
+    fn derivative_symbols(&self, axis: usize, operator: DivergenceOperator) -> Vec<f64> {
+        let (n, h) = (self.counts[axis], self.cell[axis]);
+        match operator {
+            DivergenceOperator::Spectral => {
+                let mut k = self.frequencies(axis);
+                if n % 2 == 0 {
+                    k[n / 2] = 0.0;
+                }
+                k
+            }
+            DivergenceOperator::CentralDifference => (0..n)
+                .map(|m| (2.0 * PI * m as f64 / n as f64).sin() / h)
+                .collect(),
+        }
+    }
+
+    /// Per-mode amplitudes `√(n·S(k)/Σ S)` with `S(k) = exp(−ℓ²|k|²/2)` and `S(0) = 0`, so
+    /// that `(1/n)·Σ A² = 1`, the variance of each sample. The exponent is taken relative to
+    /// the smallest nonzero `|k|²`, so a correlation far longer than the grid cannot underflow
+    /// every mode to zero.
+    fn gaussian_amplitude(&self, correlation: f64) -> Vec<f64> {
+        let k: [Vec<f64>; 3] = std::array::from_fn(|a| self.frequencies(a));
+        let lowest = (0..3)
+            .filter(|&a| self.counts[a] > 1)
+            .map(|a| k[a][1] * k[a][1])
+            .fold(f64::INFINITY, f64::min);
+        let half_l2 = 0.5 * correlation * correlation;
+        let mut power: Vec<f64> = (0..self.len)
+            .into_par_iter()
+            .map(|index| {
+                let [i, j, l] = self.cell_of(index);
+                let k2 = k[0][i] * k[0][i] + k[1][j] * k[1][j] + k[2][l] * k[2][l];
+                if index == 0 {
+                    0.0
+                } else {
+                    (-half_l2 * (k2 - lowest)).exp()
+                }
+            })
+            .collect();
+        // A sum in a fixed order: the same bits on any thread count.
+        let total: f64 = power.iter().sum();
+        let norm = if total > 0.0 {
+            self.len as f64 / total
+        } else {
+            0.0
+        };
+        power.par_iter_mut().for_each(|p| *p = (*p * norm).sqrt());
+        power
+    }
+
+    /// Removes, from every mode of a 3-component spectrum, its part along the operator's
+    /// wave vector `κ`: `û ← û − κ(κ·û)/|κ|²`. Modes with `κ = 0` are left as they are.
+    fn project(&self, spectra: &mut [Vec<Complex64>], operator: DivergenceOperator) {
+        let kappa: [Vec<f64>; 3] = std::array::from_fn(|a| self.derivative_symbols(a, operator));
+        let [x, y, z] = spectra else { return };
+        x.par_iter_mut()
+            .zip(y.par_iter_mut())
+            .zip(z.par_iter_mut())
+            .enumerate()
+            .for_each(|(index, ((x, y), z))| {
+                let [i, j, l] = self.cell_of(index);
+                let k = [kappa[0][i], kappa[1][j], kappa[2][l]];
+                let k2 = k[0] * k[0] + k[1] * k[1] + k[2] * k[2];
+                if k2 == 0.0 {
+                    return;
+                }
+                let along = (*x * k[0] + *y * k[1] + *z * k[2]) / k2;
+                *x -= along * k[0];
+                *y -= along * k[1];
+                *z -= along * k[2];
+            });
+    }
+
+    /// The variance per component left after a spectral projection of three independent
+    /// fields with these amplitudes: each projected mode keeps 2 of its 3 dimensions.
+    fn kept_variance(&self, amplitude: &[f64]) -> f64 {
+        let kappa: [Vec<f64>; 3] =
+            std::array::from_fn(|a| self.derivative_symbols(a, DivergenceOperator::Spectral));
+        let mut total = 0.0;
+        for (index, a) in amplitude.iter().enumerate() {
+            let [i, j, l] = self.cell_of(index);
+            let flat = kappa[0][i] == 0.0 && kappa[1][j] == 0.0 && kappa[2][l] == 0.0;
+            total += a * a * if flat { 3.0 } else { 2.0 };
+        }
+        total / (3.0 * self.len as f64)
+    }
+
+    /// The unnormalised 3D discrete Fourier transform, in place: 1D transforms along x, then
+    /// y, then z. Lines along y and z are gathered into contiguous rows, transformed, and
+    /// scattered back.
+    fn transform(&self, data: &mut [Complex64], direction: FftDirection) {
+        let mut planner = FftPlanner::<f64>::new();
+        let [nx, ny, _] = self.counts;
+        for axis in 0..3 {
+            let length = self.counts[axis];
+            if length == 1 {
+                continue;
+            }
+            let fft: Arc<dyn Fft<f64>> = planner.plan_fft(length, direction);
+            let scratch = || vec![Complex64::default(); fft.get_inplace_scratch_len()];
+            if axis == 0 {
+                data.par_chunks_mut(nx)
+                    .for_each_init(scratch, |s, line| fft.process_with_scratch(line, s));
+                continue;
+            }
+            let stride = if axis == 1 { nx } else { nx * ny };
+            // Line `l` runs along `axis` from `start(l)`; the other two coordinates number it.
+            let start = |l: usize| {
+                if axis == 1 {
+                    l % nx + nx * ny * (l / nx)
+                } else {
+                    l
+                }
+            };
+            let mut lines = vec![Complex64::default(); self.len];
+            let source = &*data;
+            lines
+                .par_chunks_mut(length)
+                .enumerate()
+                .for_each_init(scratch, |s, (l, line)| {
+                    let first = start(l);
+                    for (t, v) in line.iter_mut().enumerate() {
+                        *v = source[first + t * stride];
+                    }
+                    fft.process_with_scratch(line, s);
+                });
+            data.par_chunks_mut(nx).enumerate().for_each(|(row, out)| {
+                // Row `row = j + ny·k` of x-lines; find each cell's line and place in it.
+                let (j, k) = (row % ny, row / ny);
+                for (i, v) in out.iter_mut().enumerate() {
+                    let (l, t) = if axis == 1 {
+                        (i + nx * k, j)
+                    } else {
+                        (i + nx * j, k)
+                    };
+                    *v = lines[l * length + t];
+                }
+            });
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;
