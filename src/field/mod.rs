@@ -21,7 +21,6 @@ pub mod eval;
 pub mod interval;
 pub mod linalg;
 pub mod node;
-#[allow(dead_code)]
 pub mod noise;
 pub mod program;
 mod sampler;

@@ -1,280 +1,399 @@
-//! FFT-synthesised Gaussian random fields, and divergence-free projection, on periodic grids.
+//! Fourier-space work on periodic grids: Gaussian random fields with a chosen correlation
+//! length (`gaussiannoise`), and the projection that removes the divergent part of a vector
+//! field (`fftdivfree`).
 //!
-//! White noise at the cell centres (from a counter-based hash of seed, cell and component, so
-//! the result does not depend on threads) is filtered in Fourier space by the square root of the
-//! power spectrum of the Gaussian covariance `C(r) = exp(−r²/(2ℓ²))`, i.e. multiplied by
-//! `exp(−|k|²ℓ²/4)`. The one key decision: the result is normalised by its own sample standard
-//! deviation, so every field has zero mean and unit variance per component exactly, whatever
-//! the grid; the correlation shape is what the spectrum sets. The 3D transform is three passes
-//! of 1D transforms (rustfft) over lines, in parallel, each line independent.
+//! The one key decision: everything happens in the Fourier domain of the whole grid, treated
+//! as one period of an infinite periodic field, in `f64`. A 3D transform is three passes of 1D
+//! transforms (`rustfft`), one per axis, with the lines of a pass spread over threads; each
+//! line is transformed the same way on any thread, and the white noise behind a random field
+//! comes from a counter-based hash of (seed, component, cell), so results are bit-identical
+//! for any thread count.
+//!
+//! Conventions. Samples sit at cell centres, component-major: component `c` of cell
+//! `(i, j, k)` is `data[c·n + i + nx·(j + ny·k)]` with `n = nx·ny·nz`. A random field has
+//! covariance `C(r) = exp(−|r|²/(2ℓ²))` for a correlation length `ℓ` in world units, so its
+//! power spectrum is proportional to `exp(−ℓ²|k|²/2)`. The spectrum is normalised on the grid
+//! itself: every sample has ensemble mean 0 and variance exactly 1 (for a vector field, the
+//! variance averaged over the three components is 1). The `k = 0` mode is removed, so the
+//! mean over the grid is 0 exactly. The spectral derivative multiplies mode `m` along an axis
+//! of `N` cells of size `h` by `i·2πm/(Nh)` (with `m` folded to `[−N/2, N/2)`), and by 0 at
+//! the Nyquist mode `m = N/2`, whose derivative would not be real.
 
 use crate::failure::{Failure, Outcome};
-use crate::grid::domain::Domain;
-use glam::DVec3;
+use crate::grid::domain::{Domain, memory_limit};
+use glam::{DMat3, DVec3};
 use rayon::prelude::*;
-use rustfft::FftPlanner;
-use rustfft::num_complex::Complex64;
+use rustfft::num_complex::Complex;
+use rustfft::{Fft, FftDirection, FftPlanner};
 use std::f64::consts::PI;
+use std::sync::Arc;
 
-/// Samples at `domain`'s cell centres, component-major (`width` 1, or 3 when
-/// `vector`), index `i + nx (j + ny k)`. With `divergence_free` the vector field is projected
-/// onto its divergence-free part before normalising.
+type Complex64 = Complex<f64>;
+
+/// Which derivative a projection makes divergence-free.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DivergenceOperator {
+    /// The derivative of the grid's trigonometric interpolant: the spectral divergence of the
+    /// result vanishes to round-off; a finite-difference divergence is small where the field
+    /// is smooth on the scale of a cell.
+    Spectral,
+    /// Central differences, `(u[i+1] − u[i−1]) / 2h` along each axis (wrapping around): that
+    /// discrete divergence of the result vanishes to round-off. Checkerboard modes, which
+    /// central differences cannot see, are left as they are.
+    CentralDifference,
+}
+
+/// Samples at the domain's cell centres, component-major (width 1, or 3 when
+/// `divergence_free`), of a periodic Gaussian random field with covariance
+/// `exp(−|r|²/(2·correlation²))` (see the module notes for the normalisation: zero mean, unit
+/// variance per sample). A divergence-free field is three independent fields projected onto
+/// `k·û = 0` and scaled back to unit variance; its vectors are in world coordinates.
 pub fn gaussian_random_field(
     domain: &Domain,
     correlation: f64,
     seed: u32,
-    vector: bool,
     divergence_free: bool,
-) -> Outcome<Vec<Vec<f32>>> {
+) -> Outcome<Vec<f32>> {
     if !(correlation.is_finite() && correlation > 0.0) {
         return Err(Failure::new(format!(
-            "the correlation length must be positive, found {correlation}"
+            "gaussiannoise needs a positive, finite correlation length, got {correlation}"
         )));
     }
-    let res = domain
-        .resolution
-        .ok_or_else(|| Failure::new("gaussiannoise needs a domain with a cell size"))?;
-    let width = if vector { 3 } else { 1 };
-    // Complex working storage: 16 bytes per cell and component.
-    domain.check_grid_memory(4 * width)?;
-    let cells = res[0] * res[1] * res[2];
-    let mut components: Vec<Vec<Complex64>> = (0..width)
-        .map(|c| {
-            (0..cells)
+    let Some(resolution) = domain.resolution else {
+        return Err(
+            Failure::new("gaussiannoise needs a domain with cells").with_help(
+                "give the domain a cell size: domain d(origin, lengths, orientation, cell)",
+            ),
+        );
+    };
+    let width = if divergence_free { 3 } else { 1 };
+    domain.check_grid_memory(width)?;
+    let grid = Grid::new(resolution, domain.cell.to_array())?;
+    // The spectra, one scratch copy for a transform pass, and the f32 result.
+    check_working_memory(grid.len, 16 * (width + 1) + 4 * width, "gaussiannoise")?;
+
+    let amplitude = grid.gaussian_amplitude(correlation);
+    let mut spectra: Vec<Vec<Complex64>> = (0..width)
+        .map(|component| {
+            let mut s: Vec<Complex64> = (0..grid.len)
                 .into_par_iter()
-                .map(|i| Complex64::new(gaussian(seed, c as u32, i as u64), 0.0))
-                .collect()
+                .map(|cell| Complex64::new(white_noise(seed, component, cell), 0.0))
+                .collect();
+            grid.transform(&mut s, FftDirection::Forward);
+            s.par_iter_mut().zip(&amplitude).for_each(|(v, a)| *v *= *a);
+            s
         })
         .collect();
-    for data in components.iter_mut() {
-        transform(data, res, false);
+    let mut scale = 1.0 / grid.len as f64;
+    if divergence_free {
+        grid.project(&mut spectra, DivergenceOperator::Spectral);
+        scale /= grid.kept_variance(&amplitude).sqrt();
     }
-    let cell = domain.cell;
-    let wavenumber = |index: usize, n: usize, h: f64| {
-        let signed = if index <= n / 2 {
-            index as f64
-        } else {
-            index as f64 - n as f64
-        };
-        2.0 * PI * signed / (n as f64 * h)
-    };
-    let k_of = |i: usize| {
-        let (x, y, z) = (i % res[0], (i / res[0]) % res[1], i / (res[0] * res[1]));
-        DVec3::new(
-            wavenumber(x, res[0], cell.x),
-            wavenumber(y, res[1], cell.y),
-            wavenumber(z, res[2], cell.z),
-        )
-    };
-    let filter = |k: DVec3| (-k.length_squared() * correlation * correlation / 4.0).exp();
-    for data in components.iter_mut() {
-        data.par_iter_mut()
-            .enumerate()
-            .for_each(|(i, v)| *v *= filter(k_of(i)));
-    }
-    if vector && divergence_free {
-        let (a, rest) = components.split_at_mut(1);
-        let (b, c) = rest.split_at_mut(1);
-        let (u, v, w) = (&mut a[0], &mut b[0], &mut c[0]);
-        u.par_iter_mut()
-            .zip(v.par_iter_mut())
-            .zip(w.par_iter_mut())
-            .enumerate()
-            .for_each(|(i, ((u, v), w))| {
-                let k = k_of(i);
-                let k2 = k.length_squared();
-                if k2 == 0.0 {
-                    return;
-                }
-                // û ← û − k (k·û)/|k|²
-                let dot = *u * k.x + *v * k.y + *w * k.z;
-                *u -= dot * (k.x / k2);
-                *v -= dot * (k.y / k2);
-                *w -= dot * (k.z / k2);
-            });
-    }
-    for data in components.iter_mut() {
-        transform(data, res, true);
-    }
-    // Zero mean, unit variance per component.
-    Ok(components
+    let mut samples: Vec<Vec<f64>> = spectra
         .into_iter()
-        .map(|data| {
-            let n = data.len() as f64;
-            let mean = data.iter().map(|v| v.re).sum::<f64>() / n;
-            let var = data.iter().map(|v| (v.re - mean).powi(2)).sum::<f64>() / n;
-            let scale = if var > 0.0 { 1.0 / var.sqrt() } else { 0.0 };
-            data.iter()
-                .map(|v| ((v.re - mean) * scale) as f32)
-                .collect()
+        .map(|mut s| {
+            grid.transform(&mut s, FftDirection::Inverse);
+            s.into_par_iter().map(|v| v.re * scale).collect()
         })
-        .collect())
+        .collect();
+    if divergence_free && domain.rotation != DMat3::IDENTITY {
+        rotate_vectors(&mut samples, domain.rotation);
+    }
+    Ok(samples.concat().into_par_iter().map(|v| v as f32).collect())
 }
 
-/// A standard normal sample from a hash of (seed, component, cell) (Box–Muller).
-fn gaussian(seed: u32, component: u32, cell: u64) -> f64 {
-    let a = mix(((seed as u64) << 34) ^ ((component as u64) << 62) ^ cell.wrapping_mul(2));
-    let b = mix(((seed as u64) << 34) ^ ((component as u64) << 62) ^ (cell.wrapping_mul(2) + 1));
-    let u1 = ((a >> 11) as f64 + 0.5) / (1u64 << 53) as f64;
-    let u2 = (b >> 11) as f64 / (1u64 << 53) as f64;
+/// Removes the divergent part of a periodic vector field sampled at cell centres
+/// (component-major, width 3, components along the grid's own axes) in place, by projection in
+/// Fourier space with the spectral derivative. Used by `fftdivfree`.
+pub fn project_divergence_free(
+    resolution: [usize; 3],
+    cell: DVec3,
+    data: &mut [f32],
+) -> Outcome<()> {
+    project_divergence_free_with(resolution, cell, data, DivergenceOperator::Spectral)
+}
+
+/// [`project_divergence_free`] with a choice of the divergence that is made to vanish.
+pub fn project_divergence_free_with(
+    resolution: [usize; 3],
+    cell: DVec3,
+    data: &mut [f32],
+    operator: DivergenceOperator,
+) -> Outcome<()> {
+    let grid = Grid::new(resolution, cell.to_array())?;
+    if data.len() != 3 * grid.len {
+        return Err(Failure::new(format!(
+            "a divergence-free projection needs 3 components of {} cells ({} values), got {}",
+            grid.len,
+            3 * grid.len,
+            data.len()
+        )));
+    }
+    if let Some(at) = data.iter().position(|v| !v.is_finite()) {
+        let (c, i) = (at / grid.len, at % grid.len);
+        let [x, y, z] = grid.cell_of(i);
+        return Err(Failure::new(format!(
+            "cannot remove the divergence of a field with a non-finite value ({}) in component {c} of cell ({x}, {y}, {z})",
+            data[at]
+        )));
+    }
+    check_working_memory(grid.len, 16 * 4, "fftdivfree")?;
+    let mut spectra: Vec<Vec<Complex64>> = data
+        .chunks(grid.len)
+        .map(|component| {
+            let mut s: Vec<Complex64> = component
+                .par_iter()
+                .map(|v| Complex64::new(*v as f64, 0.0))
+                .collect();
+            grid.transform(&mut s, FftDirection::Forward);
+            s
+        })
+        .collect();
+    grid.project(&mut spectra, operator);
+    let scale = 1.0 / grid.len as f64;
+    for (s, out) in spectra.iter_mut().zip(data.chunks_mut(grid.len)) {
+        grid.transform(s, FftDirection::Inverse);
+        out.par_iter_mut()
+            .zip(s.par_iter())
+            .for_each(|(o, v)| *o = (v.re * scale) as f32);
+    }
+    Ok(())
+}
+
+fn check_working_memory(cells: usize, bytes_per_cell: usize, what: &str) -> Outcome<()> {
+    let bytes = cells as f64 * bytes_per_cell as f64;
+    let limit = memory_limit() as f64;
+    if bytes > limit {
+        return Err(Failure::new(format!(
+            "{what} over {cells} cells needs {:.1} GiB of working memory, over the memory limit of {:.1} GiB",
+            bytes / (1u64 << 30) as f64,
+            limit / (1u64 << 30) as f64
+        ))
+        .with_help("use a larger cell size or a smaller domain, or raise the limit with --memory-limit"));
+    }
+    Ok(())
+}
+
+/// A standard normal number for one (seed, component, cell): two uniforms from a
+/// splitmix64-style hash of the counter, then Box–Muller.
+fn white_noise(seed: u32, component: usize, cell: usize) -> f64 {
+    let key = mix64(seed as u64 ^ 0x6a09_e667_f3bc_c909);
+    let counter = ((component as u64) << 42) ^ cell as u64;
+    let a = mix64(key ^ mix64(counter << 1));
+    let b = mix64(key ^ mix64((counter << 1) | 1));
+    let unit = 1.0 / (1u64 << 53) as f64;
+    let u1 = ((a >> 11) + 1) as f64 * unit; // (0, 1]: the logarithm stays finite
+    let u2 = (b >> 11) as f64 * unit;
     (-2.0 * u1.ln()).sqrt() * (2.0 * PI * u2).cos()
 }
 
-/// SplitMix64 finaliser: a bijective scramble of 64 bits.
-fn mix(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+fn mix64(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
     z ^ (z >> 31)
 }
 
-/// In-place 3D FFT of `data` (index `i + nx (j + ny k)`), forward or inverse (scaled by 1/N).
-fn transform(data: &mut [Complex64], res: [usize; 3], inverse: bool) {
-    let mut planner = FftPlanner::new();
-    let [nx, ny, nz] = res;
-    for axis in 0..3 {
-        let n = res[axis];
-        if n < 2 {
-            continue;
-        }
-        let fft = if inverse {
-            planner.plan_fft_inverse(n)
-        } else {
-            planner.plan_fft_forward(n)
-        };
-        let (stride, lines): (usize, Vec<usize>) = match axis {
-            0 => (1, (0..ny * nz).map(|l| l * nx).collect()),
-            1 => (
-                nx,
-                (0..nx * nz)
-                    .map(|l| (l % nx) + (l / nx) * nx * ny)
-                    .collect(),
-            ),
-            _ => (nx * ny, (0..nx * ny).collect()),
-        };
-        let shared = SharedSlice(data.as_mut_ptr());
-        lines.par_iter().for_each_init(
-            || vec![Complex64::new(0.0, 0.0); n],
-            |line, &start| {
-                let shared = &shared;
-                // SAFETY: the lines of one pass are disjoint sets of indices (each index
-                // belongs to exactly one line), all inside `data`.
-                unsafe {
-                    for (t, v) in line.iter_mut().enumerate() {
-                        *v = *shared.0.add(start + t * stride);
-                    }
-                }
-                fft.process(line);
-                unsafe {
-                    for (t, v) in line.iter().enumerate() {
-                        *shared.0.add(start + t * stride) = *v;
-                    }
-                }
-            },
-        );
-    }
-    if inverse {
-        let scale = 1.0 / data.len() as f64;
-        data.par_iter_mut().for_each(|v| *v *= scale);
-    }
+/// Rotates the vector at every cell from the domain's frame to world axes.
+fn rotate_vectors(samples: &mut [Vec<f64>], rotation: DMat3) {
+    let [x, y, z] = samples else { return };
+    x.par_iter_mut()
+        .zip(y.par_iter_mut())
+        .zip(z.par_iter_mut())
+        .for_each(|((x, y), z)| {
+            let v = rotation * DVec3::new(*x, *y, *z);
+            (*x, *y, *z) = (v.x, v.y, v.z);
+        });
 }
 
-struct SharedSlice(*mut Complex64);
-// SAFETY: used only for disjoint writes from parallel lines (see `transform`).
-unsafe impl Sync for SharedSlice {}
-unsafe impl Send for SharedSlice {}
+/// A periodic grid's shape and cell size, with the transforms and wavenumbers on it.
+struct Grid {
+    counts: [usize; 3],
+    cell: [f64; 3],
+    len: usize,
+}
+
+impl Grid {
+    fn new(counts: [usize; 3], cell: [f64; 3]) -> Outcome<Grid> {
+        if counts.contains(&0) {
+            return Err(Failure::new(format!(
+                "a grid needs at least one cell along each axis, got {counts:?}"
+            )));
+        }
+        if cell.iter().any(|h| !(h.is_finite() && *h > 0.0)) {
+            return Err(Failure::new(format!(
+                "grid cell sizes must be positive and finite, got {cell:?}"
+            )));
+        }
+        let len = counts
+            .iter()
+            .try_fold(1usize, |n, c| n.checked_mul(*c))
+            .ok_or_else(|| Failure::new(format!("a grid of {counts:?} cells is too large")))?;
+        Ok(Grid { counts, cell, len })
+    }
+
+    fn cell_of(&self, index: usize) -> [usize; 3] {
+        let [nx, ny, _] = self.counts;
+        [index % nx, index / nx % ny, index / (nx * ny)]
+    }
+
+    /// Signed wavenumbers `2πm/(Nh)` of each mode along an axis, `m` folded to `[−N/2, N/2)`.
+    fn frequencies(&self, axis: usize) -> Vec<f64> {
+        let (n, h) = (self.counts[axis], self.cell[axis]);
+        (0..n)
+            .map(|m| {
+                let folded = if 2 * m >= n {
+                    m as f64 - n as f64
+                } else {
+                    m as f64
+                };
+                2.0 * PI * folded / (n as f64 * h)
+            })
+            .collect()
+    }
+
+    /// What the operator's derivative multiplies each mode by along an axis (divided by `i`).
+    fn derivative_symbols(&self, axis: usize, operator: DivergenceOperator) -> Vec<f64> {
+        let (n, h) = (self.counts[axis], self.cell[axis]);
+        match operator {
+            DivergenceOperator::Spectral => {
+                let mut k = self.frequencies(axis);
+                if n % 2 == 0 {
+                    k[n / 2] = 0.0;
+                }
+                k
+            }
+            DivergenceOperator::CentralDifference => (0..n)
+                .map(|m| (2.0 * PI * m as f64 / n as f64).sin() / h)
+                .collect(),
+        }
+    }
+
+    /// Per-mode amplitudes `√(n·S(k)/Σ S)` with `S(k) = exp(−ℓ²|k|²/2)` and `S(0) = 0`, so
+    /// that `(1/n)·Σ A² = 1`, the variance of each sample. The exponent is taken relative to
+    /// the smallest nonzero `|k|²`, so a correlation far longer than the grid cannot underflow
+    /// every mode to zero.
+    fn gaussian_amplitude(&self, correlation: f64) -> Vec<f64> {
+        let k: [Vec<f64>; 3] = std::array::from_fn(|a| self.frequencies(a));
+        let lowest = (0..3)
+            .filter(|&a| self.counts[a] > 1)
+            .map(|a| k[a][1] * k[a][1])
+            .fold(f64::INFINITY, f64::min);
+        let half_l2 = 0.5 * correlation * correlation;
+        let mut power: Vec<f64> = (0..self.len)
+            .into_par_iter()
+            .map(|index| {
+                let [i, j, l] = self.cell_of(index);
+                let k2 = k[0][i] * k[0][i] + k[1][j] * k[1][j] + k[2][l] * k[2][l];
+                if index == 0 {
+                    0.0
+                } else {
+                    (-half_l2 * (k2 - lowest)).exp()
+                }
+            })
+            .collect();
+        // A sum in a fixed order: the same bits on any thread count.
+        let total: f64 = power.iter().sum();
+        let norm = if total > 0.0 {
+            self.len as f64 / total
+        } else {
+            0.0
+        };
+        power.par_iter_mut().for_each(|p| *p = (*p * norm).sqrt());
+        power
+    }
+
+    /// Removes, from every mode of a 3-component spectrum, its part along the operator's
+    /// wave vector `κ`: `û ← û − κ(κ·û)/|κ|²`. Modes with `κ = 0` are left as they are.
+    fn project(&self, spectra: &mut [Vec<Complex64>], operator: DivergenceOperator) {
+        let kappa: [Vec<f64>; 3] = std::array::from_fn(|a| self.derivative_symbols(a, operator));
+        let [x, y, z] = spectra else { return };
+        x.par_iter_mut()
+            .zip(y.par_iter_mut())
+            .zip(z.par_iter_mut())
+            .enumerate()
+            .for_each(|(index, ((x, y), z))| {
+                let [i, j, l] = self.cell_of(index);
+                let k = [kappa[0][i], kappa[1][j], kappa[2][l]];
+                let k2 = k[0] * k[0] + k[1] * k[1] + k[2] * k[2];
+                if k2 == 0.0 {
+                    return;
+                }
+                let along = (*x * k[0] + *y * k[1] + *z * k[2]) / k2;
+                *x -= along * k[0];
+                *y -= along * k[1];
+                *z -= along * k[2];
+            });
+    }
+
+    /// The variance per component left after a spectral projection of three independent
+    /// fields with these amplitudes: each projected mode keeps 2 of its 3 dimensions.
+    fn kept_variance(&self, amplitude: &[f64]) -> f64 {
+        let kappa: [Vec<f64>; 3] =
+            std::array::from_fn(|a| self.derivative_symbols(a, DivergenceOperator::Spectral));
+        let mut total = 0.0;
+        for (index, a) in amplitude.iter().enumerate() {
+            let [i, j, l] = self.cell_of(index);
+            let flat = kappa[0][i] == 0.0 && kappa[1][j] == 0.0 && kappa[2][l] == 0.0;
+            total += a * a * if flat { 3.0 } else { 2.0 };
+        }
+        total / (3.0 * self.len as f64)
+    }
+
+    /// The unnormalised 3D discrete Fourier transform, in place: 1D transforms along x, then
+    /// y, then z. Lines along y and z are gathered into contiguous rows, transformed, and
+    /// scattered back.
+    fn transform(&self, data: &mut [Complex64], direction: FftDirection) {
+        let mut planner = FftPlanner::<f64>::new();
+        let [nx, ny, _] = self.counts;
+        for axis in 0..3 {
+            let length = self.counts[axis];
+            if length == 1 {
+                continue;
+            }
+            let fft: Arc<dyn Fft<f64>> = planner.plan_fft(length, direction);
+            let scratch = || vec![Complex64::default(); fft.get_inplace_scratch_len()];
+            if axis == 0 {
+                data.par_chunks_mut(nx)
+                    .for_each_init(scratch, |s, line| fft.process_with_scratch(line, s));
+                continue;
+            }
+            let stride = if axis == 1 { nx } else { nx * ny };
+            // Line `l` runs along `axis` from `start(l)`; the other two coordinates number it.
+            let start = |l: usize| {
+                if axis == 1 {
+                    l % nx + nx * ny * (l / nx)
+                } else {
+                    l
+                }
+            };
+            let mut lines = vec![Complex64::default(); self.len];
+            let source = &*data;
+            lines
+                .par_chunks_mut(length)
+                .enumerate()
+                .for_each_init(scratch, |s, (l, line)| {
+                    let first = start(l);
+                    for (t, v) in line.iter_mut().enumerate() {
+                        *v = source[first + t * stride];
+                    }
+                    fft.process_with_scratch(line, s);
+                });
+            data.par_chunks_mut(nx).enumerate().for_each(|(row, out)| {
+                // Row `row = j + ny·k` of x-lines; find each cell's line and place in it.
+                let (j, k) = (row % ny, row / ny);
+                for (i, v) in out.iter_mut().enumerate() {
+                    let (l, t) = if axis == 1 {
+                        (i + nx * k, j)
+                    } else {
+                        (i + nx * j, k)
+                    };
+                    *v = lines[l * length + t];
+                }
+            });
+        }
+    }
+}
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn domain(n: usize, cell: f64) -> Domain {
-        Domain::with_cells(
-            DVec3::ZERO,
-            DVec3::splat(n as f64 * cell),
-            DVec3::ZERO,
-            cell,
-            cell,
-        )
-        .unwrap()
-    }
-
-    #[test]
-    fn correlation_matches_the_gaussian_covariance() {
-        let (n, cell, ell) = (64, 1.0, 4.0);
-        let f = &gaussian_random_field(&domain(n, cell), ell, 7, false, false).unwrap()[0];
-        let mean: f64 = f.iter().map(|&v| v as f64).sum::<f64>() / f.len() as f64;
-        let var: f64 = f.iter().map(|&v| (v as f64).powi(2)).sum::<f64>() / f.len() as f64;
-        assert!(
-            mean.abs() < 1e-6 && (var - 1.0).abs() < 1e-5,
-            "{mean} {var}"
-        );
-        // Autocorrelation along x at lags ℓ/2, ℓ and 2ℓ against exp(−r²/(2ℓ²)).
-        for lag in [2usize, 4, 8] {
-            let mut sum = 0.0;
-            for k in 0..n {
-                for j in 0..n {
-                    for i in 0..n {
-                        let a = f[i + n * (j + n * k)] as f64;
-                        let b = f[(i + lag) % n + n * (j + n * k)] as f64;
-                        sum += a * b;
-                    }
-                }
-            }
-            let measured = sum / (n * n * n) as f64;
-            let r = lag as f64 * cell;
-            let expected = (-r * r / (2.0 * ell * ell)).exp();
-            assert!(
-                (measured - expected).abs() < 0.06,
-                "lag {lag}: {measured} vs {expected}"
-            );
-        }
-    }
-
-    #[test]
-    fn projected_fields_have_no_divergence() {
-        let n = 32;
-        let d = domain(n, 1.0);
-        let div = |f: &[Vec<f32>]| {
-            // Central differences, periodic.
-            let at = |c: usize, i: usize, j: usize, k: usize| {
-                f[c][(i % n) + n * ((j % n) + n * (k % n))] as f64
-            };
-            let mut total = 0.0;
-            for k in 0..n {
-                for j in 0..n {
-                    for i in 0..n {
-                        let d = (at(0, i + 1, j, k) - at(0, i + n - 1, j, k))
-                            + (at(1, i, j + 1, k) - at(1, i, j + n - 1, k))
-                            + (at(2, i, j, k + 1) - at(2, i, j, k + n - 1));
-                        total += (0.5 * d).powi(2);
-                    }
-                }
-            }
-            (total / (n * n * n) as f64).sqrt()
-        };
-        let free = gaussian_random_field(&d, 3.0, 1, true, true).unwrap();
-        let plain = gaussian_random_field(&d, 3.0, 1, true, false).unwrap();
-        let (a, b) = (div(&free), div(&plain));
-        // The discrete central divergence of a spectrally projected field is not zero (the
-        // central difference is not the spectral derivative) but far smaller.
-        assert!(a < 0.1 * b, "{a} vs {b}");
-    }
-
-    #[test]
-    fn results_do_not_depend_on_threads() {
-        let d = domain(24, 0.5);
-        let one = rayon::ThreadPoolBuilder::new()
-            .num_threads(1)
-            .build()
-            .unwrap();
-        let two = rayon::ThreadPoolBuilder::new()
-            .num_threads(2)
-            .build()
-            .unwrap();
-        let a = one.install(|| gaussian_random_field(&d, 1.0, 3, true, true).unwrap());
-        let b = two.install(|| gaussian_random_field(&d, 1.0, 3, true, true).unwrap());
-        assert!(a == b);
-        assert!(gaussian_random_field(&d, 0.0, 3, false, false).is_err());
-    }
-}
+mod tests;

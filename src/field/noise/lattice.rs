@@ -28,7 +28,6 @@ pub(crate) trait Real:
     fn sqrt(self) -> Self;
     /// `1 / self`.
     fn recip(self) -> Self;
-    fn to_f64(self) -> f64;
 }
 
 impl Real for f32 {
@@ -50,10 +49,6 @@ impl Real for f32 {
     fn recip(self) -> f32 {
         1.0 / self
     }
-    #[inline(always)]
-    fn to_f64(self) -> f64 {
-        self as f64
-    }
 }
 
 impl Real for f64 {
@@ -74,10 +69,6 @@ impl Real for f64 {
     #[inline(always)]
     fn recip(self) -> f64 {
         1.0 / self
-    }
-    #[inline(always)]
-    fn to_f64(self) -> f64 {
-        self
     }
 }
 
@@ -153,7 +144,7 @@ impl BlockBase {
 #[inline(always)]
 fn floor_i32(t: f32) -> i32 {
     let truncated = t as i32;
-    truncated - ((truncated as f32) > t) as i32
+    truncated.wrapping_sub(((truncated as f32) > t) as i32)
 }
 
 /// The lattice position of an `f64` point.

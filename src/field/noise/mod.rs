@@ -8,6 +8,28 @@
 //! second is chosen at run time when the CPU has them. The compiler then keeps eight `f32`
 //! points per register through hashing, gradient choice and blending, with no table lookups
 //! and no call per point. Lattice spacing is 1: frequency and offsets are applied by the caller.
+//!
+//! Amplitudes, for displacement and interval bounds (lattice spacing 1; a noise read at
+//! frequency `f` has slopes `f` times larger). "Bound" is what [`value_range`] and
+//! [`lipschitz`] return, certified for every seed in `bounds.rs`; "largest" is the supremum
+//! over all gradient assignments (so some seed and point come arbitrarily close); "std" is
+//! the standard deviation over space, from the closed forms in `statistics.rs`.
+//!
+//! | kind    | value bound   | largest value | std   | slope bound | largest slope |
+//! |---------|---------------|---------------|-------|-------------|---------------|
+//! | Perlin  | [-1.04, 1.04] | 1.0364        | 0.270 | 4           | 3.75          |
+//! | simplex | [-1, 1]       | 0.9885        | 0.388 | 8           | 6.89          |
+//! | Worley  | [0, 1]        | 1 (the cap)   |       | 1           | 1             |
+//!
+//! Typical values are far inside the bounds: 80 000 random points reach about ±0.8 for
+//! Perlin and ±0.85 for simplex. An `fbm` of octaves with gains `aᵢ` is bounded by
+//! `Σ|aᵢ|` times the value bound, and its slope by `Σ|aᵢ|·fᵢ` times the slope bound.
+//!
+//! Bit-for-bit results: the output for a point depends only on its block's `base` and its
+//! own offset, not on the block's length or the point's place in it. The same absolute point
+//! reached from two different bases can differ by `f32` rounding, so callers that need
+//! identical values whatever the blocking should derive the base from something fixed (a
+//! brick's corner, say), not from the thread or the first point of a work item.
 
 mod hash;
 mod lattice;
@@ -18,6 +40,8 @@ mod worley;
 #[cfg(test)]
 mod bounds;
 #[cfg(test)]
+mod statistics;
+#[cfg(test)]
 mod tests;
 
 use lattice::{BlockBase, Located, Real, Sample, locate_f64};
@@ -25,9 +49,9 @@ use lattice::{BlockBase, Located, Real, Sample, locate_f64};
 /// The noise families.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum NoiseKind {
-    /// Improved Perlin gradient noise (quintic fade, twelve edge gradients), about [-1, 1].
+    /// Improved Perlin gradient noise (quintic fade, twelve edge gradients), in [-1.04, 1.04].
     Perlin,
-    /// 3D simplex noise, scaled so its range is [-1, 1].
+    /// 3D simplex noise, scaled so its range is inside [-1, 1].
     Simplex,
     /// Worley F1 cellular noise (distance to the nearest feature point, capped at 1), [0, 1].
     Worley,
@@ -90,7 +114,7 @@ pub fn eval_f64(
     }
 }
 
-/// A proven bound `(lo, hi)` on the value (see each kernel's module and the bound tests).
+/// A bound `(lo, hi)` on the value for every seed and point (certified in `bounds.rs`).
 pub fn value_range(kind: NoiseKind) -> (f64, f64) {
     match kind {
         NoiseKind::Perlin => (-PERLIN_BOUND, PERLIN_BOUND),
@@ -108,14 +132,14 @@ pub fn lipschitz(kind: NoiseKind) -> f64 {
     }
 }
 
-/// `|perlin| ≤ 1 + κ₁ + κ₂ + κ₃`, rounded up (derivation and certificate in `bounds.rs`).
-const PERLIN_BOUND: f64 = 1.0;
-/// Certified bound on `|∇perlin|` (`bounds.rs`).
-const PERLIN_LIPSCHITZ: f64 = 10.0;
-/// Certified bound on `|simplex|` (`bounds.rs`); the scaling makes the exact supremum 1.
+/// Perlin's largest value over all gradient assignments is 1.03635; certified in `bounds.rs`.
+const PERLIN_BOUND: f64 = 1.04;
+/// Perlin's largest slope is 3.75 (along an axis at a cell centre); certified in `bounds.rs`.
+const PERLIN_LIPSCHITZ: f64 = 4.0;
+/// Simplex's largest value is 0.98854 after scaling; certified in `bounds.rs`.
 const SIMPLEX_BOUND: f64 = 1.0;
-/// Certified bound on `|∇simplex|` (`bounds.rs`).
-const SIMPLEX_LIPSCHITZ: f64 = 10.0;
+/// Simplex's largest slope is 6.89 after scaling; `bounds.rs` certifies a per-corner bound.
+const SIMPLEX_LIPSCHITZ: f64 = 8.0;
 
 /// A noise family as the block loops see it: where a point sits on its lattice, and the kernel.
 trait Kernel {

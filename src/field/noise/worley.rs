@@ -32,10 +32,10 @@ pub(crate) fn sample<R: Real, const G: bool, const H: bool>(p: Located<R>, key: 
     // vector is what makes the cap and its zero gradient fall out of the search.
     let mut best = R::ONE;
     let mut to_p = [R::ZERO; 3];
-    for k in 0..3 {
-        for j in 0..3 {
-            for i in 0..3 {
-                let h = corner(xs[i], ys[j], zs[k], key);
+    for (k, &z) in zs.iter().enumerate() {
+        for (j, &y) in ys.iter().enumerate() {
+            for (i, &x) in xs.iter().enumerate() {
+                let h = corner(x, y, z, key);
                 let jitter =
                     |shift: u32| R::from_i32(((h >> shift) & JITTER_MASK) as i32) * unit + centre;
                 let v = [

@@ -123,8 +123,22 @@ pub fn register(r: &mut Registry) {
             };
             let vector = a.form == 1;
             let divfree = matches!(a.opt(3), Some(Value::Bool(true)));
-            let data =
-                crate::grid::fft::gaussian_random_field(d, a.float(1)?, seed, vector, divfree)?;
+            let correlation = a.float(1)?;
+            let field = |seed: u32, divfree: bool| {
+                crate::grid::fft::gaussian_random_field(d, correlation, seed, divfree)
+            };
+            let data: Vec<Vec<f32>> = match (vector, divfree) {
+                (false, _) => vec![field(seed, false)?],
+                (true, true) => {
+                    let all = field(seed, true)?;
+                    let n = all.len() / 3;
+                    all.chunks(n.max(1)).map(<[f32]>::to_vec).collect()
+                }
+                // Three independent components, from consecutive seeds.
+                (true, false) => (0..3)
+                    .map(|c| field(seed.wrapping_add(c), false))
+                    .collect::<Outcome<_>>()?,
+            };
             let width = data.len();
             let cache = crate::grid::cache::Cache::from_dense(
                 (**d).clone(),
