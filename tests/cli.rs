@@ -159,7 +159,20 @@ fn repl_in_a_real_terminal() {
     wait_for("27.0");
     send("cube(undefined_name)");
     wait_for("unknown variable `undefined_name`");
+    // Typed-ahead keys can be dropped while a line is evaluated: wait for the next prompt.
+    let prompts = || {
+        let pane = String::from_utf8_lossy(&tmux(&["capture-pane", "-p", "-t", &session]).stdout)
+            .into_owned();
+        pane.lines().filter(|l| l.starts_with("felt>")).count()
+    };
+    let before = prompts();
     send("float y = cube(2) + 1");
+    for _ in 0..100 {
+        if prompts() > before {
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
     send("y * 2");
     wait_for("18.0");
     send(":type y");
