@@ -7,10 +7,21 @@
 //! caches, files) → `render` (raymarcher, image writers). Downstream modules never reach back
 //! upstream: the raymarcher knows fields, not syntax; the evaluator knows nodes, not statements.
 
+// Block kernels index several parallel lane arrays with one counter; iterator chains over
+// zipped slices would hide that and vectorise no better.
+#![allow(clippy::needless_range_loop)]
+
+pub mod check;
+pub mod diagnostic;
+pub mod doc;
 pub mod failure;
 pub mod field;
 pub mod geometry;
 pub mod grid;
+pub mod interp;
+pub mod interrupt;
 pub mod render;
+pub mod repl;
 pub mod sample;
+pub mod session;
 pub mod syntax;

@@ -1,1 +1,193 @@
-fn main() {}
+//! The `felt` command: run, check, explore (REPL) and look up (doc) field scripts.
+//!
+//! The one key decision: the whole run happens on a thread with a large stack, because scripts
+//! may build field graphs thousands of nodes deep (long `advect` chains) and the checker,
+//! interpreter and graph passes are allowed to recurse over the syntax tree. Exit codes: 0 on
+//! success, 1 on a script error, 2 on bad usage (arguments, unreadable files, unknown `--set`).
+
+use clap::{Parser, Subcommand};
+use felt::diagnostic::{self, Diagnostic};
+use felt::session::Session;
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// Stack of the thread that runs scripts.
+const RUN_STACK_BYTES: usize = 512 << 20;
+
+#[derive(Parser)]
+#[command(
+    name = "felt",
+    version,
+    about = "A field expression language for volumetric effects"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run a script.
+    Run {
+        /// The script to run.
+        file: PathBuf,
+        /// Override a `param` declaration: `--set name=value` (repeatable).
+        #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_assignment)]
+        set: Vec<(String, String)>,
+        /// Worker threads for field evaluation and rendering (default: all cores).
+        #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
+        threads: Option<u16>,
+        /// After the run, print each grid that was computed and the grids never needed.
+        #[arg(long)]
+        profile: bool,
+        /// Largest single grid, in megabytes (default: a quarter of physical memory).
+        #[arg(long, value_name = "MB", value_parser = clap::value_parser!(u64).range(1..))]
+        memory_limit: Option<u64>,
+    },
+    /// Check a script for errors without running it.
+    Check {
+        /// The script to check.
+        file: PathBuf,
+    },
+    /// Start an interactive session.
+    Repl {
+        /// Worker threads for field evaluation and rendering (default: all cores).
+        #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
+        threads: Option<u16>,
+    },
+    /// List the builtins and library functions, or describe one.
+    Doc {
+        /// A builtin or library function.
+        name: Option<String>,
+    },
+}
+
+fn parse_assignment(text: &str) -> Result<(String, String), String> {
+    match text.split_once('=') {
+        Some((name, value)) if !name.trim().is_empty() => {
+            Ok((name.trim().to_string(), value.to_string()))
+        }
+        _ => Err(format!("expected NAME=VALUE, found `{text}`")),
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            let _ = e.print();
+            return ExitCode::from(if e.use_stderr() { 2 } else { 0 });
+        }
+    };
+    let runner = std::thread::Builder::new()
+        .name("felt".into())
+        .stack_size(RUN_STACK_BYTES)
+        .spawn(move || run(cli));
+    match runner.map(|handle| handle.join()) {
+        Ok(Ok(code)) => code,
+        Ok(Err(_)) => {
+            eprintln!("felt: internal error (the message above); please report it with the script");
+            ExitCode::from(101)
+        }
+        Err(e) => {
+            eprintln!("felt: cannot start: {e}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+fn set_threads(threads: Option<u16>) {
+    if let Some(n) = threads {
+        // Only fails if a pool already exists, which cannot happen this early.
+        let _ = rayon::ThreadPoolBuilder::new()
+            .num_threads(n as usize)
+            .build_global();
+    }
+}
+
+fn run(cli: Cli) -> ExitCode {
+    let color = std::io::stderr().is_terminal();
+    match cli.command {
+        Command::Run {
+            file,
+            set,
+            threads,
+            profile,
+            memory_limit,
+        } => {
+            set_threads(threads);
+            if let Some(megabytes) = memory_limit {
+                felt::grid::domain::set_memory_limit(megabytes.saturating_mul(1 << 20));
+            }
+            let mut session = match Session::new(Box::new(std::io::stdout())) {
+                Ok(s) => s,
+                Err(failure) => {
+                    return report(&failure.sources, &failure.diagnostics, color, 1);
+                }
+            };
+            session.interp.overrides = set.into_iter().collect();
+            let code = match session.run_file(&file) {
+                Ok(warnings) => report(&session.sources.borrow(), &warnings, color, 0),
+                Err(diags) => {
+                    let usage = diags
+                        .iter()
+                        .any(|d| d.stage == diagnostic::Stage::Usage && d.is_error());
+                    let code = if usage { 2 } else { 1 };
+                    report(&session.sources.borrow(), &diags, color, code)
+                }
+            };
+            let late = session.finish();
+            if !late.is_empty() {
+                report(&session.sources.borrow(), &late, color, 0);
+            }
+            if profile {
+                eprint!("{}", Session::profile_report());
+            }
+            code
+        }
+        Command::Check { file } => {
+            let mut session = match Session::new(Box::new(std::io::stdout())) {
+                Ok(s) => s,
+                Err(failure) => {
+                    return report(&failure.sources, &failure.diagnostics, color, 1);
+                }
+            };
+            let diags = match session.load(&file) {
+                Ok(units) => session.check(&units),
+                Err(diags) => diags,
+            };
+            let usage = diags
+                .iter()
+                .any(|d| d.stage == diagnostic::Stage::Usage && d.is_error());
+            let failed = diags.iter().any(|d| d.is_error());
+            let code = match (usage, failed) {
+                (true, _) => 2,
+                (false, true) => 1,
+                (false, false) => 0,
+            };
+            let code = report(&session.sources.borrow(), &diags, color, code);
+            if !failed {
+                println!("{}: no errors", file.display());
+            }
+            code
+        }
+        Command::Repl { threads } => {
+            set_threads(threads);
+            felt::repl::run()
+        }
+        Command::Doc { name } => felt::doc::print(name.as_deref()),
+    }
+}
+
+fn report(
+    sources: &felt::syntax::span::SourceMap,
+    diags: &[Diagnostic],
+    color: bool,
+    code: u8,
+) -> ExitCode {
+    if !diags.is_empty() {
+        eprint!("{}", diagnostic::render(diags, sources, color));
+    }
+    ExitCode::from(code)
+}

@@ -102,7 +102,7 @@ impl Domain {
             resolution[axis] = count as usize;
         }
         let bytes = cells * 4.0;
-        if !(bytes <= memory_limit() as f64) || cells > (u32::MAX as f64) * 64.0 {
+        if bytes.is_nan() || bytes > memory_limit() as f64 || cells > (u32::MAX as f64) * 64.0 {
             return Err(Failure::new(format!(
                 "a domain of {} x {} x {} cells needs {} for one scalar grid, over the memory limit of {}",
                 resolution[0],
@@ -113,7 +113,12 @@ impl Domain {
             ))
             .with_help("use a larger cell size or a smaller domain, or raise the limit with --memory-limit"));
         }
-        domain.cell = lengths / DVec3::new(resolution[0] as f64, resolution[1] as f64, resolution[2] as f64);
+        domain.cell = lengths
+            / DVec3::new(
+                resolution[0] as f64,
+                resolution[1] as f64,
+                resolution[2] as f64,
+            );
         domain.resolution = Some(resolution);
         Ok(domain)
     }
@@ -196,7 +201,9 @@ impl Domain {
 
 fn check_finite(what: &str, v: DVec3) -> Outcome<()> {
     if !v.is_finite() {
-        return Err(Failure::new(format!("domain {what} must be finite, got {v}")));
+        return Err(Failure::new(format!(
+            "domain {what} must be finite, got {v}"
+        )));
     }
     Ok(())
 }

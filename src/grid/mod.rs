@@ -2,6 +2,8 @@
 
 pub mod cache;
 pub mod domain;
+pub mod fft;
 pub mod interp;
 pub mod profile;
 pub mod vdb;
+pub mod vdb_cache;

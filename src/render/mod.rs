@@ -152,12 +152,19 @@ pub fn render_with_stats(
         .map_init(
             || Worker::new(&frame),
             |worker, tile| {
+                // A Ctrl-C at the REPL abandons the remaining tiles.
+                if crate::interrupt::requested() {
+                    return None;
+                }
                 let out = worker.tile(&frame, tile);
                 progress.tick();
-                out
+                Some(out)
             },
         )
-        .collect();
+        .collect::<Vec<Option<TileOutput>>>()
+        .into_iter()
+        .collect::<Option<Vec<TileOutput>>>()
+        .ok_or_else(|| Failure::new("interrupted"))?;
     progress.finish();
     let march_seconds = marching.elapsed().as_secs_f64();
 

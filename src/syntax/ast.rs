@@ -158,7 +158,10 @@ pub enum StmtKind {
         value: Expr,
     },
     /// `target++;` / `target--;` (also prefix forms)
-    IncDec { target: Expr, increment: bool },
+    IncDec {
+        target: Expr,
+        increment: bool,
+    },
     If {
         cond: Expr,
         then_branch: Block,
@@ -256,7 +259,10 @@ pub enum ExprKind {
     Unary(UnaryOp, Box<Expr>),
     Binary(BinaryOp, Box<Expr>, Box<Expr>),
     /// `name(args)`; `name` may be a type keyword used as a constructor (`scalarfield(1.0)`).
-    Call { callee: Ident, args: Vec<Arg> },
+    Call {
+        callee: Ident,
+        args: Vec<Arg>,
+    },
     /// `a[i]`
     Index(Box<Expr>, Box<Expr>),
     /// `v.x`

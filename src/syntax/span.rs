@@ -98,6 +98,10 @@ impl SourceMap {
         &self.files[id.0 as usize]
     }
 
+    pub fn try_get(&self, id: FileId) -> Option<&Arc<SourceFile>> {
+        self.files.get(id.0 as usize)
+    }
+
     pub fn find(&self, name: &str) -> Option<FileId> {
         self.files
             .iter()

@@ -1,0 +1,884 @@
+//! The checker: every name, type and arity in a program is verified before anything runs, and
+//! all of a file's errors are reported together, not only the first. It walks the AST once
+//! with a stack of scopes, computing each expression's type with the rules of `types` and the
+//! builtin registry, and never stops at an error: a bad expression gets the type `Error`,
+//! which fits anywhere, so one mistake produces one diagnostic.
+//!
+//! Scoping follows C: functions are visible everywhere (all signatures are collected first);
+//! a function body sees its parameters, its locals, and the global variables declared before
+//! the function in the source.
+
+pub mod types;
+
+use crate::diagnostic::{Diagnostic, Stage};
+use crate::interp::registry::{self, Resolution};
+use crate::interp::suggest;
+use crate::syntax::ast::*;
+use crate::syntax::span::Span;
+use std::collections::HashMap;
+use types::{Type, binary_result, unary_result, unify};
+
+/// A user function's signature, collected before bodies are checked.
+#[derive(Clone, Debug)]
+pub struct FuncSig {
+    pub name: String,
+    pub params: Vec<Type>,
+    pub ret: Type,
+    pub span: Span,
+    /// Defined in the standard library (user definitions may shadow it).
+    pub stdlib: bool,
+}
+
+#[derive(Clone, Debug)]
+pub struct VarInfo {
+    pub ty: Type,
+    pub span: Span,
+}
+
+/// What persists between checks: global variables and functions. The REPL keeps one across
+/// inputs; a batch run makes one per run.
+#[derive(Clone, Debug, Default)]
+pub struct CheckEnv {
+    pub globals: HashMap<String, VarInfo>,
+    pub funcs: HashMap<String, FuncSig>,
+    /// At the REPL a declaration may replace an earlier global of the same name.
+    pub allow_redeclare: bool,
+}
+
+/// Registers the functions of a program in the environment. Returns the diagnostics for
+/// duplicates; shadowing a standard-library function is a warning.
+pub fn collect_functions(env: &mut CheckEnv, program: &Program, stdlib: bool) -> Vec<Diagnostic> {
+    let mut diags = Vec::new();
+    for item in &program.items {
+        let Item::Func(f) = item else { continue };
+        let sig = FuncSig {
+            name: f.name.name.clone(),
+            params: f.params.iter().map(|p| Type::from_expr(&p.ty)).collect(),
+            ret: Type::from_expr(&f.ret),
+            span: f.name.span,
+            stdlib,
+        };
+        if let Some(previous) = env.funcs.get(&f.name.name) {
+            if previous.stdlib && !stdlib {
+                diags.push(
+                    Diagnostic::warning(
+                        Stage::Name,
+                        f.name.span,
+                        format!(
+                            "`{}` shadows the standard library function of the same name",
+                            f.name.name
+                        ),
+                    )
+                    .with_label("this definition is used instead"),
+                );
+            } else if !env.allow_redeclare {
+                diags.push(
+                    Diagnostic::error(
+                        Stage::Name,
+                        f.name.span,
+                        format!("function `{}` is defined twice", f.name.name),
+                    )
+                    .with_label("second definition")
+                    .with_related(
+                        Diagnostic::error(Stage::Name, previous.span, "first defined here")
+                            .with_label("first definition"),
+                    ),
+                );
+                continue;
+            }
+        } else if registry::registry().get(&f.name.name).is_some() && !stdlib {
+            diags.push(
+                Diagnostic::warning(
+                    Stage::Name,
+                    f.name.span,
+                    format!("`{}` shadows the builtin of the same name", f.name.name),
+                )
+                .with_label("this definition is used instead"),
+            );
+        }
+        for p in &f.params {
+            if p.ty.base == BaseType::Void {
+                diags.push(Diagnostic::error(
+                    Stage::Type,
+                    p.ty.span,
+                    "a parameter cannot be void",
+                ));
+            }
+        }
+        env.funcs.insert(f.name.name.clone(), sig);
+    }
+    diags
+}
+
+/// Checks the statements and function bodies of a program against `env`, adding its globals.
+pub fn check_program(env: &mut CheckEnv, program: &Program) -> Vec<Diagnostic> {
+    let mut checker = Checker {
+        env,
+        scopes: Vec::new(),
+        diags: Vec::new(),
+        function: None,
+        loop_depth: 0,
+    };
+    for item in &program.items {
+        match item {
+            Item::Func(f) => checker.function(f),
+            Item::Stmt(s) => checker.stmt(s),
+            Item::Import(_) => {}
+        }
+    }
+    checker.diags
+}
+
+/// The type of one expression in `env` (the REPL's `:type`).
+pub fn type_of_expr(env: &mut CheckEnv, e: &Expr) -> Result<Type, Vec<Diagnostic>> {
+    let mut checker = Checker {
+        env,
+        scopes: Vec::new(),
+        diags: Vec::new(),
+        function: None,
+        loop_depth: 0,
+    };
+    let ty = checker.expr(e);
+    if checker.diags.iter().any(|d| d.is_error()) {
+        Err(checker.diags)
+    } else {
+        Ok(ty)
+    }
+}
+
+struct Checker<'e> {
+    env: &'e mut CheckEnv,
+    /// Local scopes, innermost last; empty at the top level, where declarations are globals.
+    scopes: Vec<HashMap<String, VarInfo>>,
+    diags: Vec<Diagnostic>,
+    /// The return type of the function being checked.
+    function: Option<Type>,
+    loop_depth: usize,
+}
+
+impl Checker<'_> {
+    fn error(&mut self, stage: Stage, span: Span, message: impl Into<String>) -> &mut Diagnostic {
+        self.diags.push(Diagnostic::error(stage, span, message));
+        self.diags.last_mut().expect("just pushed")
+    }
+
+    fn lookup(&self, name: &str) -> Option<&VarInfo> {
+        self.scopes
+            .iter()
+            .rev()
+            .find_map(|s| s.get(name))
+            .or_else(|| self.env.globals.get(name))
+    }
+
+    fn declare(&mut self, name: &Ident, ty: Type) {
+        let info = VarInfo {
+            ty,
+            span: name.span,
+        };
+        let replace_allowed = self.env.allow_redeclare && self.scopes.is_empty();
+        let previous = match self.scopes.last() {
+            Some(scope) => scope.get(&name.name),
+            None => self.env.globals.get(&name.name),
+        };
+        if let (Some(previous), false) = (previous, replace_allowed) {
+            let first = previous.span;
+            let d = self.error(
+                Stage::Name,
+                name.span,
+                format!("`{}` is already declared in this scope", name.name),
+            );
+            d.label = String::from("declared again here");
+            d.related.push(
+                Diagnostic::error(Stage::Name, first, "first declared here")
+                    .with_label("first declaration"),
+            );
+            return;
+        }
+        let scope = match self.scopes.last_mut() {
+            Some(scope) => scope,
+            None => &mut self.env.globals,
+        };
+        scope.insert(name.name.clone(), info);
+    }
+
+    fn expect(&mut self, span: Span, found: &Type, expected: &Type, what: &str) {
+        if !found.converts_to(expected) {
+            let d = self.error(
+                Stage::Type,
+                span,
+                format!("{what}: expected {expected}, found {found}"),
+            );
+            d.label = format!("this is {found}");
+            if expected.is_field() && found.is_field() {
+                d.help = Some(String::from(
+                    "fields of different kinds do not convert; take a component with .x/.y/.z or build one with vectorfield(sx, sy, sz)",
+                ));
+            }
+        }
+    }
+
+    fn function(&mut self, f: &FuncDecl) {
+        let ret = Type::from_expr(&f.ret);
+        self.function = Some(ret.clone());
+        self.scopes.push(HashMap::new());
+        for p in &f.params {
+            self.declare(&p.name, Type::from_expr(&p.ty));
+        }
+        self.block_in_scope(&f.body);
+        self.scopes.pop();
+        self.function = None;
+        if ret != Type::Void && !block_returns(&f.body) {
+            let d = self.error(
+                Stage::Type,
+                f.name.span,
+                format!(
+                    "function `{}` can reach its end without returning a {}",
+                    f.name.name, ret
+                ),
+            );
+            d.label = String::from("declared here");
+            d.help = Some(String::from(
+                "add a `return` statement at the end of the function",
+            ));
+        }
+    }
+
+    fn block(&mut self, block: &Block) {
+        self.scopes.push(HashMap::new());
+        self.block_in_scope(block);
+        self.scopes.pop();
+    }
+
+    fn block_in_scope(&mut self, block: &Block) {
+        for s in &block.stmts {
+            self.stmt(s);
+        }
+    }
+
+    fn stmt(&mut self, stmt: &Stmt) {
+        match &stmt.kind {
+            StmtKind::Decl {
+                is_param,
+                ty,
+                name,
+                init,
+            } => self.declaration(stmt.span, *is_param, ty, name, init),
+            StmtKind::Expr(e) => {
+                self.expr(e);
+            }
+            StmtKind::Assign { target, op, value } => self.assignment(target, *op, value),
+            StmtKind::IncDec { target, increment } => {
+                let ty = self.target(target);
+                if !(ty == Type::Int || ty.is_error()) {
+                    let op = if *increment { "++" } else { "--" };
+                    self.error(
+                        Stage::Type,
+                        target.span,
+                        format!("`{op}` works on int variables, found {ty}"),
+                    );
+                }
+            }
+            StmtKind::If {
+                cond,
+                then_branch,
+                else_branch,
+            } => {
+                self.condition(cond);
+                self.block(then_branch);
+                if let Some(e) = else_branch {
+                    self.scoped_stmt(e);
+                }
+            }
+            StmtKind::For {
+                init,
+                cond,
+                step,
+                body,
+            } => {
+                self.scopes.push(HashMap::new());
+                if let Some(init) = init {
+                    self.stmt(init);
+                }
+                if let Some(cond) = cond {
+                    self.condition(cond);
+                }
+                if let Some(step) = step {
+                    self.stmt(step);
+                }
+                self.loop_depth += 1;
+                self.block(body);
+                self.loop_depth -= 1;
+                self.scopes.pop();
+            }
+            StmtKind::While { cond, body } => {
+                self.condition(cond);
+                self.loop_depth += 1;
+                self.block(body);
+                self.loop_depth -= 1;
+            }
+            StmtKind::Break | StmtKind::Continue => {
+                if self.loop_depth == 0 {
+                    let word = if matches!(stmt.kind, StmtKind::Break) {
+                        "break"
+                    } else {
+                        "continue"
+                    };
+                    self.error(Stage::Type, stmt.span, format!("`{word}` outside a loop"));
+                }
+            }
+            StmtKind::Return(value) => self.return_stmt(stmt.span, value.as_ref()),
+            StmtKind::Block(b) => self.block(b),
+        }
+    }
+
+    fn scoped_stmt(&mut self, stmt: &Stmt) {
+        self.scopes.push(HashMap::new());
+        self.stmt(stmt);
+        self.scopes.pop();
+    }
+
+    fn condition(&mut self, cond: &Expr) {
+        let ty = self.expr(cond);
+        if !(ty == Type::Bool || ty.is_error()) {
+            let d = self.error(
+                Stage::Type,
+                cond.span,
+                format!("a condition must be a bool, found {ty}"),
+            );
+            if ty.is_number() {
+                d.help = Some(String::from("compare explicitly, e.g. `x != 0`"));
+            }
+        }
+    }
+
+    fn return_stmt(&mut self, span: Span, value: Option<&Expr>) {
+        let ty = value.map(|v| self.expr(v));
+        match (&self.function.clone(), ty) {
+            (None, _) => {
+                self.error(Stage::Type, span, "`return` outside a function");
+            }
+            (Some(Type::Void), Some(t)) if t != Type::Void => {
+                self.error(
+                    Stage::Type,
+                    span,
+                    format!("a void function cannot return a value (found {t})"),
+                );
+            }
+            (Some(ret), None) if *ret != Type::Void => {
+                self.error(
+                    Stage::Type,
+                    span,
+                    format!("this function must return a {ret}"),
+                );
+            }
+            (Some(ret), Some(t)) => {
+                if let Some(v) = value {
+                    self.expect(v.span, &t, ret, "wrong return type");
+                }
+            }
+            _ => {}
+        }
+    }
+
+    fn declaration(
+        &mut self,
+        span: Span,
+        is_param: bool,
+        ty: &TypeExpr,
+        name: &Ident,
+        init: &DeclInit,
+    ) {
+        let declared = Type::from_expr(ty);
+        if declared == Type::Void {
+            self.error(Stage::Type, ty.span, "a variable cannot be void");
+        }
+        if is_param {
+            if !self.scopes.is_empty() || self.function.is_some() {
+                self.error(
+                    Stage::Type,
+                    span,
+                    "`param` declarations belong at the top level of a script",
+                );
+            }
+            if !matches!(
+                declared,
+                Type::Int | Type::Float | Type::Bool | Type::Str | Type::Vector
+            ) {
+                self.error(
+                    Stage::Type,
+                    ty.span,
+                    format!("a param must be int, float, bool, string or vector, found {declared}"),
+                );
+            }
+        }
+        match init {
+            DeclInit::Default => {
+                if !declared.has_default() || declared == Type::Particles {
+                    let d = self.error(
+                        Stage::Type,
+                        span,
+                        format!(
+                            "a {declared} has no default value; give `{}` one",
+                            name.name
+                        ),
+                    );
+                    if Type::from_base(ty.base) == declared && constructor_exists(ty.base) {
+                        d.help = Some(format!(
+                            "use the constructor form: {}",
+                            registry::registry()
+                                .get(ty.base.keyword())
+                                .map(|b| b.forms().join(" or "))
+                                .unwrap_or_default()
+                        ));
+                    }
+                }
+            }
+            DeclInit::Expr(e) => {
+                let found = self.expr(e);
+                self.expect(
+                    e.span,
+                    &found,
+                    &declared,
+                    &format!("cannot initialise {declared} `{}`", name.name),
+                );
+            }
+            DeclInit::Ctor(args) => {
+                if ty.array_depth > 0 || !constructor_exists(ty.base) {
+                    self.error(
+                        Stage::Type,
+                        span,
+                        format!("{declared} has no constructor form"),
+                    )
+                    .help = Some(format!("write `{declared} {} = ...;`", name.name));
+                    for a in args {
+                        self.expr(&a.value);
+                    }
+                } else {
+                    let found = self.builtin_call(ty.base.keyword(), ty.span, span, args);
+                    self.expect(span, &found, &declared, "constructor");
+                }
+            }
+        }
+        self.declare(name, declared);
+    }
+
+    fn assignment(&mut self, target: &Expr, op: AssignOp, value: &Expr) {
+        let target_ty = self.target(target);
+        let value_ty = self.expr(value);
+        let result = match op {
+            AssignOp::Set => value_ty.clone(),
+            AssignOp::Add | AssignOp::Sub | AssignOp::Mul | AssignOp::Div => {
+                let bop = match op {
+                    AssignOp::Add => BinaryOp::Add,
+                    AssignOp::Sub => BinaryOp::Sub,
+                    AssignOp::Mul => BinaryOp::Mul,
+                    _ => BinaryOp::Div,
+                };
+                match binary_result(bop, &target_ty, &value_ty) {
+                    Ok(t) => t,
+                    Err(message) => {
+                        self.error(Stage::Type, value.span, message);
+                        Type::Error
+                    }
+                }
+            }
+        };
+        self.expect(value.span, &result, &target_ty, "cannot assign");
+    }
+
+    /// The type of an assignable place: a declared variable or an element of an array.
+    fn target(&mut self, target: &Expr) -> Type {
+        match &target.kind {
+            ExprKind::Var(name) => match self.lookup(&name.name) {
+                Some(info) => info.ty.clone(),
+                None => {
+                    let help = self.name_hint(&name.name);
+                    let d = self.error(
+                        Stage::Name,
+                        name.span,
+                        format!("assignment to undeclared variable `{}`", name.name),
+                    );
+                    d.help = Some(help.unwrap_or_else(|| {
+                        format!("declare it first, e.g. `float {} = ...;`", name.name)
+                    }));
+                    Type::Error
+                }
+            },
+            ExprKind::Index(base, index) => {
+                let base_ty = self.target(base);
+                self.index_type(index);
+                match base_ty {
+                    Type::Array(elem) => *elem,
+                    Type::Error => Type::Error,
+                    other => {
+                        self.error(
+                            Stage::Type,
+                            base.span,
+                            format!(
+                                "only array elements can be assigned by index; this is a {other}"
+                            ),
+                        );
+                        Type::Error
+                    }
+                }
+            }
+            _ => {
+                self.error(
+                    Stage::Type,
+                    target.span,
+                    "can only assign to a variable or an array element",
+                );
+                Type::Error
+            }
+        }
+    }
+
+    fn index_type(&mut self, index: &Expr) {
+        let t = self.expr(index);
+        if !(t == Type::Int || t.is_error()) {
+            self.error(
+                Stage::Type,
+                index.span,
+                format!("an index must be an int, found {t}"),
+            );
+        }
+    }
+
+    fn name_hint(&self, name: &str) -> Option<String> {
+        let mut names: Vec<&str> = self
+            .scopes
+            .iter()
+            .flat_map(|s| s.keys().map(|k| k.as_str()))
+            .collect();
+        names.extend(self.env.globals.keys().map(|k| k.as_str()));
+        suggest::closest(name, names.into_iter()).map(|s| format!("did you mean `{s}`?"))
+    }
+
+    fn expr(&mut self, e: &Expr) -> Type {
+        match &e.kind {
+            ExprKind::Int(_) => Type::Int,
+            ExprKind::Float(_) => Type::Float,
+            ExprKind::Bool(_) => Type::Bool,
+            ExprKind::Str(_) => Type::Str,
+            ExprKind::Var(name) => match self.lookup(&name.name) {
+                Some(info) => info.ty.clone(),
+                None => {
+                    let help = self.name_hint(&name.name).or_else(|| {
+                        (self.env.funcs.contains_key(&name.name)
+                            || registry::registry().get(&name.name).is_some())
+                        .then(|| {
+                            format!(
+                                "`{}` is a function; call it with `{}(...)`",
+                                name.name, name.name
+                            )
+                        })
+                    });
+                    let d = self.error(
+                        Stage::Name,
+                        name.span,
+                        format!("unknown variable `{}`", name.name),
+                    );
+                    d.label = String::from("not declared");
+                    d.help = help;
+                    Type::Error
+                }
+            },
+            ExprKind::Tuple(items) => self.tuple(e.span, items),
+            ExprKind::Array(items) => {
+                let mut elem: Option<Type> = None;
+                for item in items {
+                    let t = self.expr(item);
+                    elem = match elem {
+                        None => Some(t),
+                        Some(prev) => match unify(&prev, &t) {
+                            Some(u) => Some(u),
+                            None => {
+                                self.error(
+                                    Stage::Type,
+                                    item.span,
+                                    format!(
+                                        "array elements must share a type: found {prev} and {t}"
+                                    ),
+                                );
+                                Some(Type::Error)
+                            }
+                        },
+                    };
+                }
+                match elem {
+                    None => Type::EmptyArray,
+                    Some(Type::Void) => {
+                        self.error(Stage::Type, e.span, "an array cannot hold void values");
+                        Type::Error
+                    }
+                    Some(t) => Type::array_of(t),
+                }
+            }
+            ExprKind::Unary(op, operand) => {
+                let t = self.expr(operand);
+                unary_result(*op, &t).unwrap_or_else(|message| {
+                    self.error(Stage::Type, e.span, message);
+                    Type::Error
+                })
+            }
+            ExprKind::Binary(op, l, r) => {
+                let lt = self.expr(l);
+                let rt = self.expr(r);
+                binary_result(*op, &lt, &rt).unwrap_or_else(|message| {
+                    let d = self.error(Stage::Type, e.span, message);
+                    if lt.is_field() || rt.is_field() {
+                        if matches!(op, BinaryOp::Lt | BinaryOp::Le | BinaryOp::Gt | BinaryOp::Ge | BinaryOp::Eq | BinaryOp::Ne) {
+                            d.help = Some(String::from("use mask(f) (1 where f >= 0) or select(c, a, b) for pointwise choices"));
+                        }
+                    } else if *op == BinaryOp::Add && (lt == Type::Str || rt == Type::Str) {
+                        d.help = Some(String::from("convert with str(x) before joining strings"));
+                    }
+                    Type::Error
+                })
+            }
+            ExprKind::Call { callee, args } => self.call(e.span, callee, args),
+            ExprKind::Index(base, index) => {
+                let bt = self.expr(base);
+                self.index_type(index);
+                match bt {
+                    Type::Array(elem) => *elem,
+                    Type::Vector => Type::Float,
+                    Type::Matrix => Type::Vector,
+                    Type::Error => Type::Error,
+                    Type::EmptyArray => {
+                        self.error(Stage::Type, e.span, "indexing an empty array literal");
+                        Type::Error
+                    }
+                    other => {
+                        self.error(
+                            Stage::Type,
+                            base.span,
+                            format!("a {other} cannot be indexed"),
+                        );
+                        Type::Error
+                    }
+                }
+            }
+            ExprKind::Member(base, member) => {
+                let bt = self.expr(base);
+                let is_component = matches!(member.name.as_str(), "x" | "y" | "z");
+                match bt {
+                    Type::Vector if is_component => Type::Float,
+                    Type::VectorField if is_component => Type::ScalarField,
+                    Type::Error => Type::Error,
+                    Type::Vector | Type::VectorField => {
+                        self.error(
+                            Stage::Type,
+                            member.span,
+                            format!("`{}` is not a component of a {bt}", member.name),
+                        )
+                        .help = Some(String::from("the components are .x, .y and .z"));
+                        Type::Error
+                    }
+                    other => {
+                        self.error(
+                            Stage::Type,
+                            member.span,
+                            format!("a {other} has no component `.{}`", member.name),
+                        );
+                        Type::Error
+                    }
+                }
+            }
+        }
+    }
+
+    fn tuple(&mut self, span: Span, items: &[Expr]) -> Type {
+        let types: Vec<Type> = items.iter().map(|i| self.expr(i)).collect();
+        if types.iter().any(|t| t.is_error()) {
+            return Type::Error;
+        }
+        if types.len() != 3 {
+            self.error(
+                Stage::Type,
+                span,
+                format!("a vector literal has 3 components, found {}", types.len()),
+            );
+            return Type::Error;
+        }
+        let shapes: Vec<_> = types.iter().map(|t| t.shape()).collect();
+        let any_field = types.iter().any(|t| t.is_field());
+        if shapes
+            .iter()
+            .all(|s| matches!(s, Some((types::Shape::Scalar, _))))
+        {
+            return if any_field {
+                Type::VectorField
+            } else {
+                Type::Vector
+            };
+        }
+        if shapes
+            .iter()
+            .all(|s| matches!(s, Some((types::Shape::Vector, _))))
+        {
+            return if any_field {
+                Type::MatrixField
+            } else {
+                Type::Matrix
+            };
+        }
+        let shown: Vec<String> = types.iter().map(|t| t.to_string()).collect();
+        self.error(
+            Stage::Type,
+            span,
+            format!("a vector literal needs three numbers and a matrix literal three vectors, found ({})", shown.join(", ")),
+        );
+        Type::Error
+    }
+
+    fn call(&mut self, span: Span, callee: &Ident, args: &[Arg]) -> Type {
+        if let Some(sig) = self.env.funcs.get(&callee.name).cloned() {
+            let types: Vec<Type> = args.iter().map(|a| self.expr(&a.value)).collect();
+            if let Some(a) = args.iter().find(|a| a.name.is_some()) {
+                self.error(
+                    Stage::Type,
+                    a.span,
+                    format!(
+                        "`{}` is a script function; it takes positional arguments only",
+                        callee.name
+                    ),
+                );
+                return sig.ret;
+            }
+            if types.len() != sig.params.len() {
+                let d = self.error(
+                    Stage::Type,
+                    span,
+                    format!(
+                        "`{}` takes {} argument{}, found {}",
+                        callee.name,
+                        sig.params.len(),
+                        if sig.params.len() == 1 { "" } else { "s" },
+                        types.len()
+                    ),
+                );
+                d.related.push(
+                    Diagnostic::error(Stage::Type, sig.span, "defined here")
+                        .with_label("definition"),
+                );
+                return sig.ret;
+            }
+            for ((arg, found), expected) in args.iter().zip(&types).zip(&sig.params) {
+                self.expect(
+                    arg.value.span,
+                    found,
+                    expected,
+                    &format!("wrong argument to `{}`", callee.name),
+                );
+            }
+            return sig.ret;
+        }
+        if registry::registry().get(&callee.name).is_some() {
+            return self.builtin_call(&callee.name, callee.span, span, args);
+        }
+        for a in args {
+            self.expr(&a.value);
+        }
+        let mut names: Vec<String> = self.env.funcs.keys().cloned().collect();
+        names.extend(registry::registry().names().map(String::from));
+        let help = suggest::closest(&callee.name, names.iter().map(|s| s.as_str()))
+            .map(|s| format!("did you mean `{s}`?"));
+        let is_var = self.lookup(&callee.name).is_some();
+        let d = self.error(
+            Stage::Name,
+            callee.span,
+            format!("unknown function `{}`", callee.name),
+        );
+        d.label = String::from("not defined");
+        d.help = if is_var {
+            Some(format!("`{}` is a variable, not a function", callee.name))
+        } else {
+            help
+        };
+        Type::Error
+    }
+
+    fn builtin_call(&mut self, name: &str, name_span: Span, span: Span, args: &[Arg]) -> Type {
+        let builtin = registry::registry()
+            .get(name)
+            .expect("checked by the caller");
+        let types: Vec<Type> = args.iter().map(|a| self.expr(&a.value)).collect();
+        if types.iter().any(|t| t.is_error()) {
+            return builtin
+                .signatures
+                .first()
+                .map(|s| s.ret.clone())
+                .unwrap_or(Type::Error);
+        }
+        let names: Vec<Option<String>> = args
+            .iter()
+            .map(|a| a.name.as_ref().map(|n| n.name.clone()))
+            .collect();
+        match registry::resolve(builtin, &types, &names) {
+            Resolution::Match { form, .. } => builtin.signatures[form].ret.clone(),
+            Resolution::Mismatch { message, arg, help } => {
+                let at = arg.map(|i| args[i].span).unwrap_or(span);
+                let d = self.error(Stage::Type, at, message);
+                d.help = help.or_else(|| {
+                    Some(format!(
+                        "`{}`: {}",
+                        builtin.forms().join(" | "),
+                        builtin.doc
+                    ))
+                });
+                let _ = name_span;
+                Type::Error
+            }
+        }
+    }
+}
+
+fn constructor_exists(base: BaseType) -> bool {
+    registry::registry().get(base.keyword()).is_some()
+}
+
+/// Does every path through the block end in `return`?
+fn block_returns(block: &Block) -> bool {
+    block.stmts.iter().any(stmt_returns)
+}
+
+fn stmt_returns(stmt: &Stmt) -> bool {
+    match &stmt.kind {
+        StmtKind::Return(_) => true,
+        StmtKind::Block(b) => block_returns(b),
+        StmtKind::If {
+            then_branch,
+            else_branch: Some(e),
+            ..
+        } => block_returns(then_branch) && stmt_returns(e),
+        StmtKind::While { cond, body } => {
+            matches!(cond.kind, ExprKind::Bool(true)) && !contains_break(body)
+        }
+        StmtKind::For {
+            cond: None, body, ..
+        } => !contains_break(body),
+        _ => false,
+    }
+}
+
+fn contains_break(block: &Block) -> bool {
+    block.stmts.iter().any(|s| match &s.kind {
+        StmtKind::Break => true,
+        StmtKind::Block(b) => contains_break(b),
+        StmtKind::If {
+            then_branch,
+            else_branch,
+            ..
+        } => {
+            contains_break(then_branch)
+                || else_branch.as_ref().is_some_and(|e| {
+                    contains_break(&Block {
+                        stmts: vec![(**e).clone()],
+                        span: e.span,
+                    })
+                })
+        }
+        _ => false,
+    })
+}

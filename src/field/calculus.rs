@@ -1,0 +1,340 @@
+//! Symbolic differentiation and substitution over scalar node graphs.
+//!
+//! `derivatives` builds, for a set of roots, the nodes of their partial derivatives along x, y
+//! and z, by forward-mode rules applied to every reachable node once (children first, so the
+//! chain rule through a substituted warp falls out of the same rules). `substitute` replaces
+//! the position leaves by other nodes, which is how `compose`, `advect` and the warps are made:
+//! the composed field is an ordinary graph, so differentiating it again is exact too.
+//!
+//! Two decisions: where a derivative has a removable 0/0 (the gradient of `sqrt(u)` where `u`
+//! and its derivative vanish together, as for `|x|` at the origin), the rule uses the guarded
+//! division, which gives 0 there instead of NaN. And grid reads are differentiated through the
+//! interpolant's exact gradient; the second derivative of a grid read, which the interpolants
+//! only have piecewise, is a central difference of that gradient at one cell size. Noise has
+//! exact first and second derivatives; third and higher ones (needed by nested level-set
+//! projections such as procedural `cumulo`) are central differences of the exact Hessian.
+
+use crate::failure::{Failure, Outcome};
+use crate::field::node::{self, BinOp, Kernel, MathFn, NodeRef, Op};
+use crate::sample::GridDerivative;
+use glam::DVec3;
+use std::collections::HashMap;
+
+/// Partial derivatives `[d/dx, d/dy, d/dz]` of each root.
+pub fn gradients(roots: &[NodeRef]) -> Outcome<Vec<[NodeRef; 3]>> {
+    let order = node::postorder(roots);
+    let mut d: HashMap<u64, [NodeRef; 3]> = HashMap::with_capacity(order.len());
+    // Kernel nodes: the derivative of each output, per axis.
+    let mut kernel_d: HashMap<u64, Vec<[NodeRef; 3]>> = HashMap::new();
+    let zero = || node::constant(0.0);
+    for n in &order {
+        let grad: [NodeRef; 3] = match &n.op {
+            Op::Const(_) => [zero(), zero(), zero()],
+            Op::X => [node::constant(1.0), zero(), zero()],
+            Op::Y => [zero(), node::constant(1.0), zero()],
+            Op::Z => [zero(), zero(), node::constant(1.0)],
+            Op::Unary(m, a) => {
+                let factor = unary_factor(*m, a);
+                let da = &d[&a.id];
+                std::array::from_fn(|j| match &factor {
+                    Factor::Zero => zero(),
+                    Factor::One => da[j].clone(),
+                    Factor::Times(f) => node::mul(f.clone(), da[j].clone()),
+                    Factor::GuardedOver(f) => node::guarded_div(da[j].clone(), f.clone()),
+                })
+            }
+            Op::Binary(b, x, y) => {
+                let (dx, dy) = (d[&x.id].clone(), d[&y.id].clone());
+                std::array::from_fn(|j| binary_rule(*b, n, x, y, &dx[j], &dy[j]))
+            }
+            Op::Select(c, a, b) => {
+                let (da, db) = (&d[&a.id], &d[&b.id]);
+                std::array::from_fn(|j| node::select(c.clone(), da[j].clone(), db[j].clone()))
+            }
+            Op::Kernel(kernel, args) => {
+                let outs = kernel_rule(kernel, n, args, &d)?;
+                kernel_d.insert(n.id, outs);
+                // A kernel node has no value of its own; its outputs carry the derivatives.
+                [zero(), zero(), zero()]
+            }
+            Op::Output(k, i) => match kernel_d.get(&k.id).and_then(|v| v.get(*i as usize)) {
+                Some(g) => g.clone(),
+                None => return Err(third_derivative_error(k)),
+            },
+        };
+        d.insert(n.id, grad);
+    }
+    Ok(roots.iter().map(|r| d[&r.id].clone()).collect())
+}
+
+fn third_derivative_error(k: &NodeRef) -> Failure {
+    Failure::new(format!("cannot differentiate an output of {k:?}"))
+}
+
+enum Factor {
+    Zero,
+    One,
+    Times(NodeRef),
+    GuardedOver(NodeRef),
+}
+
+/// d f(a) = factor · da.
+fn unary_factor(m: MathFn, a: &NodeRef) -> Factor {
+    use node::{constant as k, mul, sub, unary};
+    match m {
+        MathFn::Abs => Factor::Times(unary(MathFn::Sign, a.clone())),
+        MathFn::Sqrt => Factor::GuardedOver(mul(k(2.0), unary(MathFn::Sqrt, a.clone()))),
+        MathFn::Exp => Factor::Times(unary(MathFn::Exp, a.clone())),
+        MathFn::Log => Factor::GuardedOver(a.clone()),
+        MathFn::Sin => Factor::Times(unary(MathFn::Cos, a.clone())),
+        MathFn::Cos => Factor::Times(node::neg(unary(MathFn::Sin, a.clone()))),
+        MathFn::Tan => {
+            let t = unary(MathFn::Tan, a.clone());
+            Factor::Times(node::add(k(1.0), mul(t.clone(), t)))
+        }
+        MathFn::Asin => {
+            Factor::GuardedOver(unary(MathFn::Sqrt, sub(k(1.0), mul(a.clone(), a.clone()))))
+        }
+        MathFn::Acos => Factor::GuardedOver(node::neg(unary(
+            MathFn::Sqrt,
+            sub(k(1.0), mul(a.clone(), a.clone())),
+        ))),
+        MathFn::Atan => Factor::GuardedOver(node::add(k(1.0), mul(a.clone(), a.clone()))),
+        MathFn::Fract => Factor::One,
+        MathFn::Floor | MathFn::Ceil | MathFn::Sign | MathFn::Step => Factor::Zero,
+    }
+}
+
+fn binary_rule(
+    op: BinOp,
+    n: &NodeRef,
+    x: &NodeRef,
+    y: &NodeRef,
+    dx: &NodeRef,
+    dy: &NodeRef,
+) -> NodeRef {
+    use node::{add, constant as k, guarded_div, mul, sub};
+    match op {
+        BinOp::Add => add(dx.clone(), dy.clone()),
+        BinOp::Sub => sub(dx.clone(), dy.clone()),
+        BinOp::Mul => add(mul(dx.clone(), y.clone()), mul(x.clone(), dy.clone())),
+        // (x/y)' = x'/y - (x/y) y'/y: IEEE where y = 0, like the quotient itself.
+        BinOp::Div => sub(
+            node::div(dx.clone(), y.clone()),
+            node::div(mul(n.clone(), dy.clone()), y.clone()),
+        ),
+        BinOp::GuardedDiv => sub(
+            guarded_div(dx.clone(), y.clone()),
+            guarded_div(mul(n.clone(), dy.clone()), y.clone()),
+        ),
+        BinOp::Pow => {
+            // d(x^y) = y x^(y-1) dx + x^y ln(x) dy; the second term only when y varies.
+            let first = match y.constant() {
+                Some(c) => mul(
+                    mul(k(c), node::binary(BinOp::Pow, x.clone(), k(c - 1.0))),
+                    dx.clone(),
+                ),
+                None => mul(
+                    mul(
+                        y.clone(),
+                        node::binary(BinOp::Pow, x.clone(), sub(y.clone(), k(1.0))),
+                    ),
+                    dx.clone(),
+                ),
+            };
+            let second = mul(
+                mul(n.clone(), node::unary(MathFn::Log, x.clone())),
+                dy.clone(),
+            );
+            add(first, second)
+        }
+        BinOp::Atan2 => {
+            // atan2(y, x) with y = x_, x = y_ here: (x dy - y dx) / (x² + y²), guarded at the origin.
+            let (yy, xx) = (x, y);
+            let (dyy, dxx) = (dx, dy);
+            guarded_div(
+                sub(mul(xx.clone(), dyy.clone()), mul(yy.clone(), dxx.clone())),
+                add(mul(xx.clone(), xx.clone()), mul(yy.clone(), yy.clone())),
+            )
+        }
+        // min picks x where x <= y; max picks x where x >= y.
+        BinOp::Min => node::select(sub(y.clone(), x.clone()), dx.clone(), dy.clone()),
+        BinOp::Max => node::select(sub(x.clone(), y.clone()), dx.clone(), dy.clone()),
+    }
+}
+
+/// Derivatives of every output of a kernel node along x, y, z.
+fn kernel_rule(
+    kernel: &Kernel,
+    n: &NodeRef,
+    args: &[NodeRef],
+    d: &HashMap<u64, [NodeRef; 3]>,
+) -> Outcome<Vec<[NodeRef; 3]>> {
+    let chain = |partial: &dyn Fn(usize) -> NodeRef| -> [NodeRef; 3] {
+        // d out / d x_j = sum_k d out / d arg_k * d arg_k / d x_j
+        std::array::from_fn(|j| {
+            node::sum((0..args.len()).map(|k| node::mul(partial(k), d[&args[k].id][j].clone())))
+        })
+    };
+    Ok(match kernel {
+        Kernel::Noise { .. } => {
+            // Hessian output index for the pair (a, b).
+            let hess = |a: usize, b: usize| -> usize {
+                match (a.min(b), a.max(b)) {
+                    (0, 0) => 4,
+                    (1, 1) => 5,
+                    (2, 2) => 6,
+                    (0, 1) => 7,
+                    (0, 2) => 8,
+                    _ => 9,
+                }
+            };
+            let mut outs = Vec::with_capacity(10);
+            outs.push(chain(&|k| node::output_of(n, 1 + k)));
+            for a in 0..3 {
+                outs.push(chain(&|k| node::output_of(n, hess(a, k))));
+            }
+            // Third and higher derivatives: central differences of the exact Hessian, a
+            // thousandth of a lattice cell apart (relative error about 1e-6).
+            let plus: Vec<NodeRef> = (0..3)
+                .map(|k| shifted_kernel(kernel, args, k, NOISE_STEP))
+                .collect();
+            let minus: Vec<NodeRef> = (0..3)
+                .map(|k| shifted_kernel(kernel, args, k, -NOISE_STEP))
+                .collect();
+            for o in 4..10 {
+                outs.push(chain(&|k| {
+                    node::mul(
+                        node::constant(0.5 / NOISE_STEP),
+                        node::sub(node::output_of(&plus[k], o), node::output_of(&minus[k], o)),
+                    )
+                }));
+            }
+            outs
+        }
+        Kernel::GridValue {
+            grid,
+            derivative: GridDerivative::Central,
+            ..
+        } => {
+            // Central differences of the read itself at one cell size.
+            let h = grid.cell_size().min_element();
+            let plus: Vec<NodeRef> = (0..3).map(|k| shifted_kernel(kernel, args, k, h)).collect();
+            let minus: Vec<NodeRef> = (0..3)
+                .map(|k| shifted_kernel(kernel, args, k, -h))
+                .collect();
+            (0..kernel.outputs())
+                .map(|o| {
+                    chain(&|k| {
+                        node::mul(
+                            node::constant(0.5 / h),
+                            node::sub(node::output_of(&plus[k], o), node::output_of(&minus[k], o)),
+                        )
+                    })
+                })
+                .collect()
+        }
+        Kernel::GridValue { grid, interp, .. } => {
+            let gradient = node::mk(Op::Kernel(
+                Kernel::GridGradient {
+                    grid: grid.clone(),
+                    interp: *interp,
+                },
+                args.to_vec(),
+            ));
+            (0..grid.width())
+                .map(|c| chain(&|k| node::output_of(&gradient, c * 3 + k)))
+                .collect()
+        }
+        Kernel::GridGradient { grid, .. } => {
+            // Central differences of the interpolant's gradient at one cell size.
+            let h = grid.cell_size().min_element();
+            let plus: Vec<NodeRef> = (0..3).map(|k| shifted_kernel(kernel, args, k, h)).collect();
+            let minus: Vec<NodeRef> = (0..3)
+                .map(|k| shifted_kernel(kernel, args, k, -h))
+                .collect();
+            (0..kernel.outputs())
+                .map(|o| {
+                    chain(&|k| {
+                        node::mul(
+                            node::constant(0.5 / h),
+                            node::sub(node::output_of(&plus[k], o), node::output_of(&minus[k], o)),
+                        )
+                    })
+                })
+                .collect()
+        }
+        Kernel::PseudoInverse => {
+            // d(M⁻¹) = -M⁻¹ dM M⁻¹, exact where M is invertible.
+            let inv: Vec<NodeRef> = (0..9).map(|i| node::output_of(n, i)).collect();
+            (0..9)
+                .map(|o| {
+                    let (r, c) = (o / 3, o % 3);
+                    std::array::from_fn(|j| {
+                        let mut terms = Vec::new();
+                        for a in 0..3 {
+                            for b in 0..3 {
+                                let dm = d[&args[a * 3 + b].id][j].clone();
+                                terms.push(node::mul(
+                                    node::mul(inv[r * 3 + a].clone(), dm),
+                                    inv[b * 3 + c].clone(),
+                                ));
+                            }
+                        }
+                        node::neg(node::sum(terms))
+                    })
+                })
+                .collect()
+        }
+    })
+}
+
+/// Lattice units between the samples of a noise Hessian's central difference.
+const NOISE_STEP: f64 = 1e-3;
+
+/// The same kernel with argument `axis` moved by `offset`. An argument that is already some
+/// node plus a constant gets the constants summed, so differences of differences land on
+/// shared points (`x + h - h` is `x` again) and nested derivatives stay polynomial in size.
+fn shifted_kernel(kernel: &Kernel, args: &[NodeRef], axis: usize, offset: f64) -> NodeRef {
+    let mut moved = args.to_vec();
+    let arg = &args[axis];
+    moved[axis] = match &arg.op {
+        Op::Binary(BinOp::Add, a, b) if b.constant().is_some() && a.constant().is_none() => {
+            let total = b.constant().unwrap_or(0.0) + offset;
+            node::add(a.clone(), node::constant(total))
+        }
+        Op::Binary(BinOp::Add, a, b) if a.constant().is_some() && b.constant().is_none() => {
+            let total = a.constant().unwrap_or(0.0) + offset;
+            node::add(b.clone(), node::constant(total))
+        }
+        _ => node::add(arg.clone(), node::constant(offset)),
+    };
+    node::mk(Op::Kernel(kernel.clone(), moved))
+}
+
+/// `roots` with the position leaves x, y, z replaced by `at[0..3]`.
+pub fn substitute(roots: &[NodeRef], at: &[NodeRef; 3]) -> Vec<NodeRef> {
+    let order = node::postorder(roots);
+    let mut map: HashMap<u64, NodeRef> = HashMap::with_capacity(order.len());
+    for n in &order {
+        let get = |c: &NodeRef| map[&c.id].clone();
+        let new = match &n.op {
+            Op::Const(_) => n.clone(),
+            Op::X => at[0].clone(),
+            Op::Y => at[1].clone(),
+            Op::Z => at[2].clone(),
+            Op::Unary(m, a) => node::unary(*m, get(a)),
+            Op::Binary(b, x, y) => node::binary(*b, get(x), get(y)),
+            Op::Select(c, a, b) => node::select(get(c), get(a), get(b)),
+            Op::Kernel(k, args) => node::mk(Op::Kernel(k.clone(), args.iter().map(get).collect())),
+            Op::Output(k, i) => node::output_of(&get(k), *i as usize),
+        };
+        map.insert(n.id, new);
+    }
+    roots.iter().map(|r| map[&r.id].clone()).collect()
+}
+
+/// The position nodes shifted by a constant vector: `x - offset`.
+pub fn shifted_position(offset: DVec3) -> [NodeRef; 3] {
+    std::array::from_fn(|i| node::sub(node::position(i), node::constant(offset[i])))
+}

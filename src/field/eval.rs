@@ -1,0 +1,306 @@
+//! Running a compiled program over blocks of points.
+//!
+//! Each thread owns an [`Evaluator`]: the register file (one `BLOCK`-wide row per register)
+//! plus scratch space for kernels. A block is run by copying the points into registers 0–2 and
+//! executing the tape once. The one key decision about precision: every register holds `f64`,
+//! for every caller. Arithmetic in double precision costs little next to noise and grid reads,
+//! and it keeps warps, level sets and long advection chains accurate far from the origin. The
+//! only single-precision stage is noise when the caller asked for `f32` values (cache fills,
+//! rendering): the noise kernels then take one `f64` base point per block and `f32` offsets
+//! from it, so lattice lookups stay exact 1e5 units from the origin while eight points share
+//! one AVX2 register. `probe` and `stats` use the double-precision noise reference.
+//!
+//! The tape loop is compiled twice, plainly and with AVX2 enabled, and the second is used when
+//! the processor has it (checked once).
+
+use crate::field::linalg::pseudo_inverse;
+use crate::field::node::{BinOp, MathFn};
+use crate::field::noise::{self, NoiseOutput};
+use crate::field::program::{Instr, Program, Reg, UNUSED};
+use crate::sample::BLOCK;
+
+/// Which noise kernels a run uses (registers are always `f64`).
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum Precision {
+    /// Noise in `f32` offsets from an `f64` block base: for cache fills and rendering.
+    Single,
+    /// Noise in `f64` throughout: for probes, statistics and accuracy references.
+    Double,
+}
+
+pub struct Evaluator<'p> {
+    program: &'p Program,
+    regs: Vec<f64>,
+    /// Grid kernels write all components here first, component-major.
+    grid_out: Vec<f64>,
+    /// f32 noise inputs (offsets from the block base) and outputs.
+    noise_in: [Vec<f32>; 3],
+    noise_out: Vec<f32>,
+    noise_out64: Vec<f64>,
+}
+
+impl<'p> Evaluator<'p> {
+    pub fn new(program: &'p Program) -> Evaluator<'p> {
+        let mut regs = vec![0.0; program.registers * BLOCK];
+        for &(r, c) in &program.constants {
+            regs[r as usize * BLOCK..(r as usize + 1) * BLOCK].fill(c);
+        }
+        Evaluator {
+            program,
+            regs,
+            grid_out: vec![0.0; program.grid_scratch.max(1) * BLOCK],
+            noise_in: [vec![0.0; BLOCK], vec![0.0; BLOCK], vec![0.0; BLOCK]],
+            noise_out: vec![0.0; 10 * BLOCK],
+            noise_out64: vec![0.0; 10 * BLOCK],
+        }
+    }
+
+    /// Runs the program on `xs.len() <= BLOCK` points; results stay in the output registers.
+    pub fn run(&mut self, xs: &[f64], ys: &[f64], zs: &[f64], precision: Precision) {
+        let n = xs.len().min(ys.len()).min(zs.len()).min(BLOCK);
+        self.regs[..n].copy_from_slice(&xs[..n]);
+        self.regs[BLOCK..BLOCK + n].copy_from_slice(&ys[..n]);
+        self.regs[2 * BLOCK..2 * BLOCK + n].copy_from_slice(&zs[..n]);
+        #[cfg(target_arch = "x86_64")]
+        {
+            if avx2_available() {
+                // SAFETY: the processor supports AVX2 (checked above).
+                unsafe { self.run_avx2(n, precision) };
+                return;
+            }
+        }
+        self.run_tape(n, precision);
+    }
+
+    /// Component `c` of the result for the last run, `n` lanes.
+    pub fn output(&self, c: usize, n: usize) -> &[f64] {
+        let r = self.program.outputs[c] as usize;
+        &self.regs[r * BLOCK..r * BLOCK + n]
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn run_avx2(&mut self, n: usize, precision: Precision) {
+        self.run_tape(n, precision)
+    }
+
+    #[inline(always)]
+    fn run_tape(&mut self, n: usize, precision: Precision) {
+        let program = self.program;
+        for instr in &program.instrs {
+            match instr {
+                Instr::Unary { f, dst, a } => unary(&mut self.regs, *f, *dst, *a, n),
+                Instr::Binary { op, dst, a, b } => binary(&mut self.regs, *op, *dst, *a, *b, n),
+                Instr::Select { dst, c, a, b } => {
+                    let (d, [c, a, b]) = lanes(&mut self.regs, *dst, [*c, *a, *b], n);
+                    for i in 0..n {
+                        d[i] = if c[i] >= 0.0 { a[i] } else { b[i] };
+                    }
+                }
+                Instr::Noise {
+                    kind,
+                    seed,
+                    at,
+                    outs,
+                } => self.noise(*kind, *seed, *at, outs, n, precision),
+                Instr::Grid {
+                    grid,
+                    interp,
+                    gradient,
+                    at,
+                    outs,
+                } => {
+                    let [x, y, z] = at.map(|r| r as usize * BLOCK);
+                    let width = outs.len();
+                    let (regs, out) = (&self.regs, &mut self.grid_out[..width * n]);
+                    let (xs, ys, zs) = (&regs[x..x + n], &regs[y..y + n], &regs[z..z + n]);
+                    if *gradient {
+                        grid.sample_gradient(*interp, xs, ys, zs, out);
+                    } else {
+                        grid.sample(*interp, xs, ys, zs, out);
+                    }
+                    for (c, &r) in outs.iter().enumerate() {
+                        if r != UNUSED {
+                            let r = r as usize * BLOCK;
+                            self.regs[r..r + n].copy_from_slice(&self.grid_out[c * n..(c + 1) * n]);
+                        }
+                    }
+                }
+                Instr::PseudoInverse { m, outs } => {
+                    for i in 0..n {
+                        let entries: [f64; 9] =
+                            std::array::from_fn(|k| self.regs[m[k] as usize * BLOCK + i]);
+                        let inv = pseudo_inverse(entries);
+                        for (k, &r) in outs.iter().enumerate() {
+                            if r != UNUSED {
+                                self.regs[r as usize * BLOCK + i] = inv[k];
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    fn noise(
+        &mut self,
+        kind: noise::NoiseKind,
+        seed: u32,
+        at: [Reg; 3],
+        outs: &[Reg; 10],
+        n: usize,
+        precision: Precision,
+    ) {
+        let wants_gradient = outs[1..4].iter().any(|&r| r != UNUSED);
+        let wants_hessian = outs[4..].iter().any(|&r| r != UNUSED);
+        let [x, y, z] = at.map(|r| r as usize * BLOCK);
+        match precision {
+            Precision::Double => {
+                let regs = &self.regs;
+                let (xs, ys, zs) = (&regs[x..x + n], &regs[y..y + n], &regs[z..z + n]);
+                let out = split_output(
+                    &mut self.noise_out64[..10 * n],
+                    n,
+                    wants_gradient,
+                    wants_hessian,
+                );
+                noise::eval_f64(kind, seed, xs, ys, zs, out);
+                for (k, &r) in outs.iter().enumerate() {
+                    if r != UNUSED {
+                        let r = r as usize * BLOCK;
+                        self.regs[r..r + n].copy_from_slice(&self.noise_out64[k * n..(k + 1) * n]);
+                    }
+                }
+            }
+            Precision::Single => {
+                if n == 0 {
+                    return;
+                }
+                let base = [self.regs[x], self.regs[y], self.regs[z]];
+                for (axis, start) in [x, y, z].into_iter().enumerate() {
+                    let offsets = &mut self.noise_in[axis];
+                    for i in 0..n {
+                        offsets[i] = (self.regs[start + i] - base[axis]) as f32;
+                    }
+                }
+                let out = split_output(
+                    &mut self.noise_out[..10 * n],
+                    n,
+                    wants_gradient,
+                    wants_hessian,
+                );
+                let [ix, iy, iz] = &self.noise_in;
+                noise::eval_f32(kind, seed, base, &ix[..n], &iy[..n], &iz[..n], out);
+                for (k, &r) in outs.iter().enumerate() {
+                    if r != UNUSED {
+                        let r = r as usize * BLOCK;
+                        let row = &self.noise_out[k * n..(k + 1) * n];
+                        for (d, s) in self.regs[r..r + n].iter_mut().zip(row) {
+                            *d = *s as f64;
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Ten rows of `n` values (value, gradient, Hessian) as a noise output.
+fn split_output<T>(rows: &mut [T], n: usize, gradient: bool, hessian: bool) -> NoiseOutput<'_, T> {
+    let (value, rest) = rows.split_at_mut(n);
+    let (g, h) = rest.split_at_mut(3 * n);
+    let (g0, g) = g.split_at_mut(n);
+    let (g1, g2) = g.split_at_mut(n);
+    let (h0, h) = h.split_at_mut(n);
+    let (h1, h) = h.split_at_mut(n);
+    let (h2, h) = h.split_at_mut(n);
+    let (h3, h) = h.split_at_mut(n);
+    let (h4, h5) = h.split_at_mut(n);
+    NoiseOutput {
+        value,
+        gradient: gradient.then_some([g0, g1, g2]),
+        hessian: hessian.then_some([h0, h1, h2, h3, h4, h5]),
+    }
+}
+
+/// The destination row and operand rows of one instruction. The register allocator never gives
+/// an instruction a destination equal to one of its operands, which is what makes this sound.
+#[inline(always)]
+fn lanes<const K: usize>(
+    regs: &mut [f64],
+    dst: Reg,
+    operands: [Reg; K],
+    n: usize,
+) -> (&mut [f64], [&[f64]; K]) {
+    let dst = dst as usize;
+    assert!(operands.iter().all(|&o| o as usize != dst) && (dst + 1) * BLOCK <= regs.len());
+    assert!(
+        operands
+            .iter()
+            .all(|&o| (o as usize + 1) * BLOCK <= regs.len())
+            && n <= BLOCK
+    );
+    let base = regs.as_mut_ptr();
+    // SAFETY: all rows are in bounds (asserted) and the destination row is disjoint from every
+    // operand row, so the one mutable slice aliases none of the shared ones.
+    unsafe {
+        let d = std::slice::from_raw_parts_mut(base.add(dst * BLOCK), n);
+        let ops = operands
+            .map(|o| std::slice::from_raw_parts(base.add(o as usize * BLOCK) as *const f64, n));
+        (d, ops)
+    }
+}
+
+#[inline(always)]
+fn map1(regs: &mut [f64], dst: Reg, a: Reg, n: usize, f: impl Fn(f64) -> f64) {
+    let (d, [a]) = lanes(regs, dst, [a], n);
+    for i in 0..n {
+        d[i] = f(a[i]);
+    }
+}
+
+#[inline(always)]
+fn map2(regs: &mut [f64], dst: Reg, a: Reg, b: Reg, n: usize, f: impl Fn(f64, f64) -> f64) {
+    let (d, [a, b]) = lanes(regs, dst, [a, b], n);
+    for i in 0..n {
+        d[i] = f(a[i], b[i]);
+    }
+}
+
+#[inline(always)]
+fn unary(regs: &mut [f64], f: MathFn, dst: Reg, a: Reg, n: usize) {
+    match f {
+        MathFn::Abs => map1(regs, dst, a, n, f64::abs),
+        MathFn::Sqrt => map1(regs, dst, a, n, f64::sqrt),
+        MathFn::Floor => map1(regs, dst, a, n, f64::floor),
+        MathFn::Ceil => map1(regs, dst, a, n, f64::ceil),
+        MathFn::Fract => map1(regs, dst, a, n, |x| x - x.floor()),
+        MathFn::Step => map1(regs, dst, a, n, |x| if x >= 0.0 { 1.0 } else { 0.0 }),
+        other => map1(regs, dst, a, n, |x| other.apply(x)),
+    }
+}
+
+#[inline(always)]
+fn binary(regs: &mut [f64], op: BinOp, dst: Reg, a: Reg, b: Reg, n: usize) {
+    match op {
+        BinOp::Add => map2(regs, dst, a, b, n, |x, y| x + y),
+        BinOp::Sub => map2(regs, dst, a, b, n, |x, y| x - y),
+        BinOp::Mul => map2(regs, dst, a, b, n, |x, y| x * y),
+        BinOp::Div => map2(regs, dst, a, b, n, |x, y| x / y),
+        BinOp::GuardedDiv => map2(regs, dst, a, b, n, |x, y| {
+            let q = x / y;
+            if y == 0.0 { 0.0 } else { q }
+        }),
+        BinOp::Min => map2(regs, dst, a, b, n, f64::min),
+        BinOp::Max => map2(regs, dst, a, b, n, f64::max),
+        BinOp::Pow => map2(regs, dst, a, b, n, f64::powf),
+        BinOp::Atan2 => map2(regs, dst, a, b, n, f64::atan2),
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+fn avx2_available() -> bool {
+    use std::sync::OnceLock;
+    static AVAILABLE: OnceLock<bool> = OnceLock::new();
+    *AVAILABLE.get_or_init(|| std::is_x86_feature_detected!("avx2"))
+}

@@ -1,0 +1,370 @@
+//! Conservative value ranges and supports of node graphs, by interval arithmetic.
+//!
+//! `ranges` evaluates every node once on a box of positions and returns an interval that
+//! contains every value the roots take there (NaN-producing operations widen to the whole line).
+//! `support` finds a box outside which a field is exactly zero: a structural pass first (a
+//! product is zero where either factor is, a grid read of zero background is zero outside its
+//! grid), then an octree search that discards boxes whose interval is exactly zero. The one key
+//! decision: the search starts from ±1e5 units when the structure says nothing, keeps at most a
+//! few thousand boxes per level, and stops refining when that budget would be exceeded, so it
+//! always ends quickly with a bound that is conservative, if not always tight.
+
+use crate::field::node::{self, BinOp, Kernel, MathFn, NodeRef, Op};
+use crate::field::noise;
+use crate::sample::Aabb;
+use glam::DVec3;
+use std::collections::HashMap;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Interval {
+    pub lo: f64,
+    pub hi: f64,
+}
+
+const ALL: Interval = Interval {
+    lo: f64::NEG_INFINITY,
+    hi: f64::INFINITY,
+};
+
+impl Interval {
+    pub fn new(lo: f64, hi: f64) -> Interval {
+        if lo.is_nan() || hi.is_nan() || lo > hi {
+            ALL
+        } else {
+            Interval { lo, hi }
+        }
+    }
+
+    fn point(v: f64) -> Interval {
+        Interval::new(v, v)
+    }
+
+    fn union(self, o: Interval) -> Interval {
+        Interval::new(self.lo.min(o.lo), self.hi.max(o.hi))
+    }
+
+    pub fn is_zero(&self) -> bool {
+        self.lo == 0.0 && self.hi == 0.0
+    }
+
+    fn mul(self, o: Interval) -> Interval {
+        if self.is_zero() || o.is_zero() {
+            return Interval::point(0.0);
+        }
+        let p = [
+            self.lo * o.lo,
+            self.lo * o.hi,
+            self.hi * o.lo,
+            self.hi * o.hi,
+        ];
+        if p.iter().any(|v| v.is_nan()) {
+            return ALL;
+        }
+        Interval::new(
+            p.iter().cloned().fold(f64::INFINITY, f64::min),
+            p.iter().cloned().fold(f64::NEG_INFINITY, f64::max),
+        )
+    }
+
+    fn recip(self) -> Interval {
+        if self.lo > 0.0 || self.hi < 0.0 {
+            Interval::new(1.0 / self.hi, 1.0 / self.lo)
+        } else {
+            ALL
+        }
+    }
+
+    fn monotone(self, f: impl Fn(f64) -> f64) -> Interval {
+        Interval::new(f(self.lo), f(self.hi))
+    }
+}
+
+fn unary(m: MathFn, a: Interval) -> Interval {
+    match m {
+        MathFn::Abs => {
+            if a.lo >= 0.0 {
+                a
+            } else if a.hi <= 0.0 {
+                Interval::new(-a.hi, -a.lo)
+            } else {
+                Interval::new(0.0, (-a.lo).max(a.hi))
+            }
+        }
+        MathFn::Sqrt if a.lo >= 0.0 => a.monotone(f64::sqrt),
+        MathFn::Exp => a.monotone(f64::exp),
+        MathFn::Log if a.lo > 0.0 => a.monotone(f64::ln),
+        MathFn::Sin | MathFn::Cos => {
+            if a.hi - a.lo < 1.0 && a.lo.is_finite() && a.hi.is_finite() {
+                // Narrow: the extremes are at the ends or at a crest inside.
+                let f = if m == MathFn::Sin { f64::sin } else { f64::cos };
+                let mut r = Interval::new(f(a.lo).min(f(a.hi)), f(a.lo).max(f(a.hi)));
+                let phase = if m == MathFn::Sin { 0.5 } else { 0.0 };
+                let crest = |k: f64| (k + phase) * std::f64::consts::PI;
+                let first = (a.lo / std::f64::consts::PI - phase).ceil();
+                let mut k = first;
+                while crest(k) <= a.hi {
+                    r = r.union(Interval::point(f(crest(k))));
+                    k += 1.0;
+                }
+                r
+            } else {
+                Interval::new(-1.0, 1.0)
+            }
+        }
+        MathFn::Asin => Interval::new(a.lo.max(-1.0), a.hi.min(1.0)).monotone(f64::asin),
+        MathFn::Acos => {
+            let c = Interval::new(a.lo.max(-1.0), a.hi.min(1.0));
+            Interval::new(c.hi.acos(), c.lo.acos())
+        }
+        MathFn::Atan => a.monotone(f64::atan),
+        MathFn::Floor => a.monotone(f64::floor),
+        MathFn::Ceil => a.monotone(f64::ceil),
+        MathFn::Fract => {
+            if a.lo.floor() == a.hi.floor() && a.lo.is_finite() {
+                Interval::new(a.lo - a.lo.floor(), a.hi - a.lo.floor())
+            } else {
+                Interval::new(0.0, 1.0)
+            }
+        }
+        MathFn::Sign => a.monotone(|x| MathFn::Sign.apply(x)),
+        MathFn::Step => a.monotone(|x| MathFn::Step.apply(x)),
+        _ => ALL,
+    }
+}
+
+fn binary(op: BinOp, a: Interval, b: Interval) -> Interval {
+    match op {
+        BinOp::Add => Interval::new(a.lo + b.lo, a.hi + b.hi),
+        BinOp::Sub => Interval::new(a.lo - b.hi, a.hi - b.lo),
+        BinOp::Mul => a.mul(b),
+        BinOp::Div => a.mul(b.recip()),
+        BinOp::GuardedDiv => {
+            let q = a.mul(b.recip());
+            if b.lo <= 0.0 && b.hi >= 0.0 {
+                // Zero is a possible value where the divisor vanishes.
+                q.union(Interval::point(0.0))
+            } else {
+                q
+            }
+        }
+        BinOp::Min => Interval::new(a.lo.min(b.lo), a.hi.min(b.hi)),
+        BinOp::Max => Interval::new(a.lo.max(b.lo), a.hi.max(b.hi)),
+        BinOp::Atan2 => Interval::new(-std::f64::consts::PI, std::f64::consts::PI),
+        BinOp::Pow => {
+            if a.lo > 0.0 {
+                // x^y = exp(y ln x), monotone in each factor's ends.
+                let ln = a.monotone(f64::ln);
+                unary(MathFn::Exp, ln.mul(b))
+            } else if b.lo == b.hi && b.lo.fract() == 0.0 && b.lo >= 0.0 {
+                let p = b.lo as i32;
+                let ends = [a.lo.powi(p), a.hi.powi(p)];
+                let mut r = Interval::new(ends[0].min(ends[1]), ends[0].max(ends[1]));
+                if p % 2 == 0 && a.lo < 0.0 && a.hi > 0.0 {
+                    r = r.union(Interval::point(0.0));
+                }
+                r
+            } else {
+                ALL
+            }
+        }
+    }
+}
+
+/// Intervals of `roots` over positions in `region`.
+pub fn ranges(roots: &[NodeRef], region: &Aabb) -> Vec<Interval> {
+    let order = node::postorder(roots);
+    let mut iv: HashMap<u64, Interval> = HashMap::with_capacity(order.len());
+    let mut kernel_iv: HashMap<u64, Vec<Interval>> = HashMap::new();
+    for n in &order {
+        let get = |c: &NodeRef| iv.get(&c.id).copied().unwrap_or(ALL);
+        let r = match &n.op {
+            Op::Const(c) => Interval::point(*c),
+            Op::X => Interval::new(region.min.x, region.max.x),
+            Op::Y => Interval::new(region.min.y, region.max.y),
+            Op::Z => Interval::new(region.min.z, region.max.z),
+            Op::Unary(m, a) => unary(*m, get(a)),
+            Op::Binary(op, a, b) => binary(*op, get(a), get(b)),
+            Op::Select(c, a, b) => {
+                let c = get(c);
+                if c.lo >= 0.0 {
+                    get(a)
+                } else if c.hi < 0.0 {
+                    get(b)
+                } else {
+                    get(a).union(get(b))
+                }
+            }
+            Op::Kernel(k, args) => {
+                let outs = kernel_ranges(k, &args.iter().map(get).collect::<Vec<_>>());
+                kernel_iv.insert(n.id, outs);
+                ALL
+            }
+            Op::Output(k, i) => kernel_iv
+                .get(&k.id)
+                .and_then(|v| v.get(*i as usize))
+                .copied()
+                .unwrap_or(ALL),
+        };
+        iv.insert(n.id, r);
+    }
+    roots.iter().map(|r| iv[&r.id]).collect()
+}
+
+fn kernel_ranges(kernel: &Kernel, args: &[Interval]) -> Vec<Interval> {
+    match kernel {
+        Kernel::Noise { kind, .. } => {
+            let (lo, hi) = noise::value_range(*kind);
+            let slope = noise::lipschitz(*kind);
+            let mut v = vec![Interval::new(lo, hi)];
+            v.extend([Interval::new(-slope, slope); 3]);
+            v.extend([ALL; 6]);
+            v
+        }
+        Kernel::GridValue { grid, .. } => {
+            let region = Aabb::new(
+                DVec3::new(args[0].lo, args[1].lo, args[2].lo),
+                DVec3::new(args[0].hi, args[1].hi, args[2].hi),
+            );
+            let inside = region.intersection(&grid.bounds());
+            let background = grid.background();
+            let outside_possible =
+                !(grid.bounds().contains(region.min) && grid.bounds().contains(region.max));
+            let within = if inside.is_empty() {
+                vec![]
+            } else {
+                grid.range(&inside)
+            };
+            (0..grid.width())
+                .map(|c| {
+                    let mut r: Option<Interval> =
+                        within.get(c).map(|&(lo, hi)| Interval::new(lo, hi));
+                    if outside_possible || r.is_none() {
+                        let b = Interval::point(background.get(c).copied().unwrap_or(0.0));
+                        r = Some(r.map_or(b, |r| r.union(b)));
+                    }
+                    r.unwrap_or(ALL)
+                })
+                .collect()
+        }
+        other => vec![ALL; other.outputs()],
+    }
+}
+
+/// A box outside which every root is exactly zero, or `None` if no finite box was found.
+pub fn support(roots: &[NodeRef]) -> Option<Aabb> {
+    let structural = structural_support(roots);
+    let start = match structural {
+        Some(b) if b.is_empty() => return Some(b),
+        Some(b) if b.is_finite() => b,
+        _ => Aabb::new(DVec3::splat(-1e5), DVec3::splat(1e5)),
+    };
+    let maybe_nonzero = |b: &Aabb| ranges(roots, b).iter().any(|r| !r.is_zero());
+    if !maybe_nonzero(&start) {
+        return Some(Aabb::new(DVec3::ZERO, DVec3::ZERO));
+    }
+    const BUDGET: usize = 4096;
+    let mut boxes = vec![start];
+    for _level in 0..40 {
+        let mut next = Vec::with_capacity(boxes.len() * 8);
+        for b in &boxes {
+            let c = b.center();
+            for octant in 0..8 {
+                let pick = |bit: usize, axis: usize| {
+                    if octant >> bit & 1 == 0 {
+                        (b.min[axis], c[axis])
+                    } else {
+                        (c[axis], b.max[axis])
+                    }
+                };
+                let (x, y, z) = (pick(0, 0), pick(1, 1), pick(2, 2));
+                let child = Aabb::new(DVec3::new(x.0, y.0, z.0), DVec3::new(x.1, y.1, z.1));
+                if maybe_nonzero(&child) {
+                    next.push(child);
+                }
+            }
+        }
+        if next.len() > BUDGET {
+            break;
+        }
+        let tight = union_of(&next);
+        let size = tight.size().max_element();
+        boxes = next;
+        // Refining further only trims a shell thinner than 1/64 of the extent.
+        if boxes[0].size().max_element() < size / 64.0 {
+            break;
+        }
+    }
+    let found = union_of(&boxes);
+    if found.is_empty() || !found.is_finite() {
+        None
+    } else if structural.is_none() && reaches_edge(&found, &start) {
+        // Nonzero up to the search's edge: the field may extend beyond it.
+        None
+    } else {
+        Some(found)
+    }
+}
+
+fn reaches_edge(found: &Aabb, start: &Aabb) -> bool {
+    found.min.cmple(start.min).any() || found.max.cmpge(start.max).any()
+}
+
+fn union_of(boxes: &[Aabb]) -> Aabb {
+    boxes.iter().fold(
+        Aabb::new(DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+        |a, b| a.union(b),
+    )
+}
+
+/// Supports known from the graph's shape alone. `None` means "everywhere".
+fn structural_support(roots: &[NodeRef]) -> Option<Aabb> {
+    let order = node::postorder(roots);
+    let empty = Aabb::new(DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    let mut s: HashMap<u64, Option<Aabb>> = HashMap::with_capacity(order.len());
+    let union = |a: Option<Aabb>, b: Option<Aabb>| match (a, b) {
+        (Some(a), Some(b)) => Some(a.union(&b)),
+        _ => None,
+    };
+    let is_position =
+        |n: &NodeRef, axis: usize| matches!((&n.op, axis), (Op::X, 0) | (Op::Y, 1) | (Op::Z, 2));
+    for n in &order {
+        let get = |c: &NodeRef| s.get(&c.id).copied().flatten();
+        let r = match &n.op {
+            Op::Const(c) => (*c == 0.0).then_some(empty),
+            Op::X | Op::Y | Op::Z => None,
+            Op::Unary(m, a) => match m {
+                MathFn::Abs
+                | MathFn::Sqrt
+                | MathFn::Sin
+                | MathFn::Tan
+                | MathFn::Asin
+                | MathFn::Atan
+                | MathFn::Sign => get(a),
+                _ => None,
+            },
+            Op::Binary(op, a, b) => match op {
+                BinOp::Mul => match (get(a), get(b)) {
+                    (Some(x), Some(y)) => Some(x.intersection(&y)),
+                    (Some(x), None) | (None, Some(x)) => Some(x),
+                    (None, None) => None,
+                },
+                BinOp::Div | BinOp::GuardedDiv => get(a),
+                BinOp::Add | BinOp::Sub | BinOp::Min | BinOp::Max => union(get(a), get(b)),
+                _ => None,
+            },
+            Op::Select(_, a, b) => union(get(a), get(b)),
+            Op::Kernel(..) => None,
+            Op::Output(k, i) => match &k.op {
+                Op::Kernel(Kernel::GridValue { grid, .. }, args)
+                    if (0..3).all(|a| is_position(&args[a], a))
+                        && grid.background().get(*i as usize) == Some(&0.0) =>
+                {
+                    Some(grid.bounds())
+                }
+                _ => None,
+            },
+        };
+        s.insert(n.id, r);
+    }
+    roots.iter().map(|r| s[&r.id]).reduce(union).flatten()
+}

@@ -1,0 +1,230 @@
+//! Fields as samplers: the compiled form that cache fills, the raymarcher and mesh extraction
+//! consume, and the two inspection outputs, `probe` and `stats`.
+//!
+//! `stats` splits the domain into fixed runs of cells, evaluates the runs on all threads and
+//! combines the per-run results in run order, so its result does not depend on the number of
+//! threads. The one key decision: inspection evaluates in double precision throughout (noise
+//! included), because it is how scripts and tests check values against closed forms.
+
+use crate::failure::{Failure, Outcome};
+use crate::field::eval::{Evaluator, Precision};
+use crate::field::interval;
+use crate::field::node::NodeRef;
+use crate::field::program::Program;
+use crate::field::{Field, FieldKind, FieldValue};
+use crate::grid::domain::Domain;
+use crate::sample::{Aabb, BLOCK, BlockEval, FieldSampler};
+use glam::{DMat3, DVec3};
+use rayon::prelude::*;
+use std::sync::{Arc, OnceLock};
+
+/// A field compiled for evaluation.
+pub struct CompiledField {
+    program: Program,
+    roots: Vec<NodeRef>,
+    support: OnceLock<Option<Aabb>>,
+}
+
+impl CompiledField {
+    pub fn new(field: &Field) -> CompiledField {
+        CompiledField {
+            program: Program::compile(field.components()),
+            roots: field.components().to_vec(),
+            support: OnceLock::new(),
+        }
+    }
+
+    pub fn program(&self) -> &Program {
+        &self.program
+    }
+
+    /// As a shareable sampler.
+    pub fn shared(field: &Field) -> Arc<dyn FieldSampler> {
+        Arc::new(CompiledField::new(field))
+    }
+}
+
+struct CompiledEval<'a> {
+    evaluator: Evaluator<'a>,
+    width: usize,
+}
+
+impl CompiledEval<'_> {
+    fn each_block(
+        &mut self,
+        xs: &[f64],
+        ys: &[f64],
+        zs: &[f64],
+        precision: Precision,
+        mut store: impl FnMut(usize, usize, &[f64]),
+    ) {
+        let total = xs.len();
+        let mut start = 0;
+        while start < total {
+            let end = (start + BLOCK).min(total);
+            self.evaluator
+                .run(&xs[start..end], &ys[start..end], &zs[start..end], precision);
+            for c in 0..self.width {
+                store(c, start, self.evaluator.output(c, end - start));
+            }
+            start = end;
+        }
+    }
+}
+
+impl BlockEval for CompiledEval<'_> {
+    fn eval_f32(&mut self, xs: &[f64], ys: &[f64], zs: &[f64], out: &mut [f32]) {
+        let n = xs.len();
+        self.each_block(xs, ys, zs, Precision::Single, |c, start, values| {
+            let row = &mut out[c * n + start..c * n + start + values.len()];
+            for (o, v) in row.iter_mut().zip(values) {
+                *o = *v as f32;
+            }
+        });
+    }
+
+    fn eval_f64(&mut self, xs: &[f64], ys: &[f64], zs: &[f64], out: &mut [f64]) {
+        let n = xs.len();
+        self.each_block(xs, ys, zs, Precision::Double, |c, start, values| {
+            out[c * n + start..c * n + start + values.len()].copy_from_slice(values);
+        });
+    }
+}
+
+impl FieldSampler for CompiledField {
+    fn width(&self) -> usize {
+        self.roots.len()
+    }
+
+    fn evaluator(&self) -> Box<dyn BlockEval + '_> {
+        Box::new(CompiledEval {
+            evaluator: Evaluator::new(&self.program),
+            width: self.roots.len(),
+        })
+    }
+
+    fn bounds(&self) -> Option<Aabb> {
+        *self.support.get_or_init(|| interval::support(&self.roots))
+    }
+
+    fn range(&self, region: &Aabb) -> Vec<(f64, f64)> {
+        interval::ranges(&self.roots, region)
+            .into_iter()
+            .map(|r| (r.lo, r.hi))
+            .collect()
+    }
+}
+
+/// The value of `field` at `point`, in double precision.
+pub fn probe(field: &Field, point: DVec3) -> Outcome<FieldValue> {
+    if !point.is_finite() {
+        return Err(Failure::new(format!(
+            "probe point must be finite, found {point}"
+        )));
+    }
+    let program = Program::compile(field.components());
+    let mut evaluator = Evaluator::new(&program);
+    evaluator.run(&[point.x], &[point.y], &[point.z], Precision::Double);
+    let v: Vec<f64> = (0..field.kind().width())
+        .map(|c| evaluator.output(c, 1)[0])
+        .collect();
+    Ok(match field.kind() {
+        FieldKind::Scalar => FieldValue::Scalar(v[0]),
+        FieldKind::Vector => FieldValue::Vector(DVec3::new(v[0], v[1], v[2])),
+        FieldKind::Matrix => FieldValue::Matrix(DMat3::from_cols_array(&[
+            v[0], v[3], v[6], v[1], v[4], v[7], v[2], v[5], v[8],
+        ])),
+    })
+}
+
+/// Cells per unit of parallel work in `stats`: fixed, so results do not depend on threads.
+const STATS_RUN: usize = 16 * BLOCK;
+
+/// `(min, max, mean)` of a scalarfield over the cell centres of `domain`. NaN values make the
+/// mean NaN and are skipped by min and max; the count of non-finite values is returned too.
+pub fn stats(field: &Field, domain: &Domain) -> Outcome<(f64, f64, f64)> {
+    stats_with_count(field, domain).map(|(min, max, mean, _)| (min, max, mean))
+}
+
+/// `stats` plus the number of non-finite values seen.
+pub fn stats_with_count(field: &Field, domain: &Domain) -> Outcome<(f64, f64, f64, u64)> {
+    if field.kind() != FieldKind::Scalar {
+        return Err(Failure::new(format!(
+            "stats takes a scalarfield, found a {}",
+            field.kind().name()
+        )));
+    }
+    let [nx, ny, nz] = domain.resolution.ok_or_else(|| {
+        Failure::new("stats needs a domain with a cell size")
+            .with_help("give the domain a cell size: domain(origin, lengths, orientation, cell)")
+    })?;
+    let cells = nx * ny * nz;
+    let program = Program::compile(field.components());
+    let runs = cells.div_ceil(STATS_RUN);
+    let partials: Vec<Option<(f64, f64, f64, u64)>> = (0..runs)
+        .into_par_iter()
+        .map_init(
+            || Evaluator::new(&program),
+            |evaluator, run| {
+                if crate::interrupt::requested() {
+                    return None;
+                }
+                let first = run * STATS_RUN;
+                let last = (first + STATS_RUN).min(cells);
+                let (mut xs, mut ys, mut zs) = (
+                    Vec::with_capacity(BLOCK),
+                    Vec::with_capacity(BLOCK),
+                    Vec::with_capacity(BLOCK),
+                );
+                let (mut min, mut max, mut sum, mut bad) =
+                    (f64::INFINITY, f64::NEG_INFINITY, 0.0, 0u64);
+                let mut start = first;
+                while start < last {
+                    let end = (start + BLOCK).min(last);
+                    xs.clear();
+                    ys.clear();
+                    zs.clear();
+                    for cell in start..end {
+                        let (i, j, k) = (cell % nx, (cell / nx) % ny, cell / (nx * ny));
+                        let p = domain.cell_center(i, j, k);
+                        xs.push(p.x);
+                        ys.push(p.y);
+                        zs.push(p.z);
+                    }
+                    evaluator.run(&xs, &ys, &zs, Precision::Double);
+                    // Pairwise within a block keeps the sum's rounding small.
+                    let values = evaluator.output(0, end - start);
+                    for &v in values {
+                        min = min.min(v);
+                        max = max.max(v);
+                        if !v.is_finite() {
+                            bad += 1;
+                        }
+                    }
+                    sum += pairwise_sum(values);
+                    start = end;
+                }
+                Some((min, max, sum, bad))
+            },
+        )
+        .collect();
+    let mut total = (f64::INFINITY, f64::NEG_INFINITY, 0.0, 0u64);
+    let mut sums = Vec::with_capacity(partials.len());
+    for p in partials {
+        let (min, max, sum, bad) = p.ok_or_else(|| Failure::new("interrupted"))?;
+        total.0 = total.0.min(min);
+        total.1 = total.1.max(max);
+        sums.push(sum);
+        total.3 += bad;
+    }
+    total.2 = pairwise_sum(&sums) / cells as f64;
+    Ok(total)
+}
+
+fn pairwise_sum(values: &[f64]) -> f64 {
+    if values.len() <= 8 {
+        return values.iter().sum();
+    }
+    let (a, b) = values.split_at(values.len() / 2);
+    pairwise_sum(a) + pairwise_sum(b)
+}

@@ -1,0 +1,146 @@
+//! Geometry builtins (LANGUAGE.md §9): level sets to meshes and back, mesh files, pieces.
+//!
+//! `ls2shape(ls)` without a domain meshes over the box where the level set can be positive,
+//! found by interval analysis of `mask(ls)`, with `DEFAULT_MESH_CELLS` cells along its longest
+//! side. `shape2ls` is a cache of the mesh's signed distance (winding-number sign), so it is
+//! exact at cell centres and interpolated between; outside its domain it reads minus the
+//! domain's diagonal, i.e. clearly outside.
+
+use crate::failure::{Failure, Outcome};
+use crate::field::{CompiledField, Field};
+use crate::geometry::{self, Mesh, MeshDistance};
+use crate::grid::cache::Cache;
+use crate::interp::registry::Registry;
+use crate::interp::value::Value;
+use crate::sample::{FieldSampler, GridDerivative, GridSource, Interp};
+use std::path::Path;
+use std::rc::Rc;
+use std::sync::Arc;
+
+pub fn register(r: &mut Registry) {
+    r.add(
+        "geometry",
+        &[
+            "ls2shape(scalarfield ls) -> shape",
+            "ls2shape(scalarfield ls, domain d) -> shape",
+        ],
+        "the zero set of a level set as a closed triangle mesh (marching cubes over d's cells, or \
+         over the level set's inside at 128 cells along its longest side)",
+        |_, a| {
+            let ls = a.get(0)?.as_field()?;
+            let sampler = CompiledField::new(&ls);
+            let domain = match a.opt(1) {
+                Some(Value::Domain(d)) => {
+                    if d.resolution.is_none() {
+                        return Err(Failure::new("ls2shape needs a domain with a cell size"));
+                    }
+                    (**d).clone()
+                }
+                _ => geometry::default_mesh_domain(&CompiledField::new(&ls.mask()?))?,
+            };
+            Ok(Value::Shape(Rc::new(geometry::marching_cubes(
+                &sampler, &domain,
+            )?)))
+        },
+    );
+    r.add(
+        "geometry",
+        &["shape2ls(shape s, domain d) -> scalarfield"],
+        "the signed distance to a mesh (positive inside, by winding number), sampled at d's cells",
+        |interp, a| {
+            let Value::Shape(mesh) = a.get(0)? else {
+                return Err(Failure::new("expected a shape"));
+            };
+            let Value::Domain(d) = a.get(1)? else {
+                return Err(Failure::new("expected a domain"));
+            };
+            if d.resolution.is_none() {
+                return Err(Failure::new("shape2ls needs a domain with a cell size"));
+            }
+            let distance: Arc<dyn FieldSampler> = Arc::new(MeshDistance::new(mesh)?);
+            let label = format!("shape2ls at {}", interp.location(interp.call_span));
+            let outside = -d.lengths.length();
+            let cache = Cache::from_field((**d).clone(), 1, distance, vec![outside], label)?;
+            let grid: Arc<dyn GridSource> = Arc::new(cache);
+            Ok(Value::Field(Field::from_grid(
+                grid,
+                Interp::Linear,
+                GridDerivative::Interpolant,
+            )?))
+        },
+    );
+    r.add(
+        "geometry",
+        &["loadshape(string path) -> shape"],
+        "reads a triangle mesh from an OBJ or PLY file",
+        |_, a| {
+            Ok(Value::Shape(Rc::new(geometry::load_mesh(Path::new(
+                a.string(0)?,
+            ))?)))
+        },
+    );
+    r.add(
+        "geometry",
+        &["saveshape(shape s, string path) -> void"],
+        "writes a mesh as OBJ (text) or PLY (binary), by the path's extension",
+        |_, a| {
+            let Value::Shape(mesh) = a.get(0)? else {
+                return Err(Failure::new("expected a shape"));
+            };
+            geometry::save_mesh(mesh, Path::new(a.string(1)?))?;
+            Ok(Value::Void)
+        },
+    );
+    r.add(
+        "geometry",
+        &["pieces(shape s) -> shape[]"],
+        "the connected components of a mesh",
+        |_, a| {
+            let Value::Shape(mesh) = a.get(0)? else {
+                return Err(Failure::new("expected a shape"));
+            };
+            let parts: Vec<Value> = geometry::pieces(mesh)
+                .into_iter()
+                .map(|m| Value::Shape(Rc::new(m)))
+                .collect();
+            Ok(Value::Array(
+                Rc::new(parts),
+                crate::check::types::Type::Shape,
+            ))
+        },
+    );
+    r.add(
+        "geometry",
+        &["volume(shape s) -> float"],
+        "the volume a closed mesh encloses",
+        |_, a| Ok(Value::Float(mesh_of(a.get(0)?)?.volume())),
+    );
+    r.add(
+        "geometry",
+        &["area(shape s) -> float"],
+        "the surface area of a mesh",
+        |_, a| Ok(Value::Float(mesh_of(a.get(0)?)?.area())),
+    );
+    r.add(
+        "geometry",
+        &["vertices(shape s) -> int"],
+        "the number of vertices of a mesh",
+        |_, a| Ok(Value::Int(mesh_of(a.get(0)?)?.positions.len() as i64)),
+    );
+    r.add(
+        "geometry",
+        &["triangles(shape s) -> int"],
+        "the number of triangles of a mesh",
+        |_, a| Ok(Value::Int(mesh_of(a.get(0)?)?.triangles.len() as i64)),
+    );
+}
+
+fn mesh_of(v: &Value) -> Outcome<&Mesh> {
+    match v {
+        Value::Shape(m) => Ok(m),
+        other => Err(Failure::new(format!(
+            "expected a shape, found {}",
+            other.type_of()
+        ))),
+    }
+}

@@ -1,0 +1,331 @@
+//! Domain and cache builtins (LANGUAGE.md §6): `domain`, the cache constructors, `cachewrite`,
+//! `cacheread`, `cachefill`, `cachesave` and `cacheload`.
+//!
+//! `cachewrite` does not sample anything: it compiles the field and hands it to a cache that
+//! fills 8³ bricks the first time something reads them, so a cache that no output reaches
+//! costs nothing. Value semantics come from swapping the cache variable's state: `cacheread`
+//! captures the cache as it is, and a later `cachewrite` installs a new cache without touching
+//! fields already read.
+
+use crate::check::types::Shape;
+use crate::diagnostic::{self, Diagnostic, Stage};
+use crate::failure::{Failure, Outcome};
+use crate::field::{CompiledField, Field};
+use crate::grid::cache::Cache;
+use crate::grid::domain::Domain;
+use crate::grid::vdb_cache;
+use crate::interp::Interpreter;
+use crate::interp::registry::{Args, Registry};
+use crate::interp::value::{CacheVar, Value};
+use crate::sample::{GridDerivative, GridSource, Interp};
+use glam::{DMat3, DVec3};
+use std::cell::RefCell;
+use std::path::Path;
+use std::rc::Rc;
+use std::sync::Arc;
+
+pub fn register(r: &mut Registry) {
+    r.add(
+        "caches",
+        &[
+            "domain(vector origin, vector lengths, vector orientation) -> domain",
+            "domain(vector origin, vector lengths, vector orientation, float cell) -> domain",
+            "domain(vector origin, vector lengths, vector orientation, float cellxy, float cellz) -> domain",
+        ],
+        "an oriented box (corner, edge lengths, rotation vector), with cubic or (xy, z) cells",
+        |_, a| {
+            let (origin, lengths, orientation) = (
+                a.get(0)?.as_vector()?,
+                a.get(1)?.as_vector()?,
+                a.get(2)?.as_vector()?,
+            );
+            let domain = match a.form {
+                0 => Domain::new(origin, lengths, orientation)?,
+                1 => {
+                    let cell = a.float(3)?;
+                    Domain::with_cells(origin, lengths, orientation, cell, cell)?
+                }
+                _ => Domain::with_cells(origin, lengths, orientation, a.float(3)?, a.float(4)?)?,
+            };
+            Ok(Value::Domain(Rc::new(domain)))
+        },
+    );
+    r.add(
+        "caches",
+        &["scalarcache(domain d, float background?) -> scalarcache"],
+        "storage for a scalarfield at the cell centres of d; reads give background outside d",
+        |_, a| {
+            let background = a.opt_float(1)?.unwrap_or(0.0);
+            new_cache(&a, Shape::Scalar, vec![background])
+        },
+    );
+    r.add(
+        "caches",
+        &["vectorcache(domain d, vector background?) -> vectorcache"],
+        "storage for a vectorfield at the cell centres of d",
+        |_, a| {
+            let b = match a.opt(1) {
+                Some(v) => v.as_vector()?,
+                None => DVec3::ZERO,
+            };
+            new_cache(&a, Shape::Vector, b.to_array().to_vec())
+        },
+    );
+    r.add(
+        "caches",
+        &["matrixcache(domain d, matrix background?) -> matrixcache"],
+        "storage for a matrixfield at the cell centres of d",
+        |_, a| {
+            let m = match a.opt(1) {
+                Some(v) => v.as_matrix()?,
+                None => DMat3::ZERO,
+            };
+            let rows = (0..9).map(|i| m.row(i / 3)[i % 3]).collect();
+            new_cache(&a, Shape::Matrix, rows)
+        },
+    );
+    r.add(
+        "caches",
+        &[
+            "cachewrite(scalarcache c, scalarfield f) -> void",
+            "cachewrite(vectorcache c, vectorfield f) -> void",
+            "cachewrite(matrixcache c, matrixfield f) -> void",
+        ],
+        "samples f into c (lazily: bricks are computed when first read)",
+        cachewrite,
+    );
+    r.add(
+        "caches",
+        &[
+            "cacheread(scalarcache c, string interp?, string derivative?) -> scalarfield",
+            "cacheread(vectorcache c, string interp?, string derivative?) -> vectorfield",
+            "cacheread(matrixcache c, string interp?, string derivative?) -> matrixfield",
+        ],
+        "the field interpolating c's samples: interp \"linear\" (default) or \"cubic\"; \
+         grad of it is the interpolant's derivative, or derivative = \"central\" differences",
+        cacheread,
+    );
+    r.add(
+        "caches",
+        &[
+            "cachefill(scalarcache c) -> void",
+            "cachefill(vectorcache c) -> void",
+            "cachefill(matrixcache c) -> void",
+        ],
+        "computes every brick of c now (for timing, or before saving)",
+        |interp, a| {
+            let cache = written(&a)?;
+            cache.fill_all();
+            report_now(interp, &cache);
+            Ok(Value::Void)
+        },
+    );
+    r.add(
+        "caches",
+        &[
+            "cachesave(scalarcache c, string path) -> void",
+            "cachesave(vectorcache c, string path) -> void",
+        ],
+        "writes c to an OpenVDB file (grid named \"density\" or \"vel\", or the name after '#': \"a.vdb#temperature\")",
+        |interp, a| {
+            let cache = written(&a)?;
+            let (path, name) = split_grid_name(a.string(1)?);
+            let name = name.unwrap_or(if cache.width() == 1 { "density" } else { "vel" });
+            vdb_cache::save(&cache, Path::new(path), name)?;
+            report_now(interp, &cache);
+            Ok(Value::Void)
+        },
+    );
+    r.add(
+        "caches",
+        &[
+            "cacheload(string path, string grid) -> scalarfield",
+        ],
+        "reads a float grid of an OpenVDB file as a field (linear interpolation, background outside)",
+        |_, a| {
+            let cache = vdb_cache::load(Path::new(a.string(0)?), a.string(1)?, 1)?;
+            let grid: Arc<dyn GridSource> = Arc::new(cache);
+            Ok(Value::Field(Field::from_grid(grid, Interp::Linear, GridDerivative::Interpolant)?))
+        },
+    );
+    r.add(
+        "caches",
+        &["cacheloadvector(string path, string grid) -> vectorfield"],
+        "reads a vector grid of an OpenVDB file as a field",
+        |_, a| {
+            let cache = vdb_cache::load(Path::new(a.string(0)?), a.string(1)?, 3)?;
+            let grid: Arc<dyn GridSource> = Arc::new(cache);
+            Ok(Value::Field(Field::from_grid(
+                grid,
+                Interp::Linear,
+                GridDerivative::Interpolant,
+            )?))
+        },
+    );
+}
+
+fn new_cache(a: &Args, shape: Shape, background: Vec<f64>) -> Outcome<Value> {
+    let Value::Domain(d) = a.get(0)? else {
+        return Err(Failure::new("a cache needs a domain"));
+    };
+    if d.resolution.is_none() {
+        return Err(
+            Failure::new("a cache needs a domain with a cell size").with_help(
+                "add the cell size to the domain: domain(origin, lengths, orientation, cell)",
+            ),
+        );
+    }
+    if background.iter().any(|b| !b.is_finite()) {
+        return Err(Failure::new("a cache's background must be finite"));
+    }
+    let width = background.len();
+    d.check_grid_memory(width)?;
+    Ok(Value::Cache(Rc::new(CacheVar {
+        shape,
+        domain: d.clone(),
+        background,
+        state: RefCell::new(None),
+    })))
+}
+
+fn cache_var(a: &Args) -> Outcome<&Rc<CacheVar>> {
+    match a.get(0)? {
+        Value::Cache(c) => Ok(c),
+        other => Err(Failure::new(format!(
+            "expected a cache, found {}",
+            other.type_of()
+        ))),
+    }
+}
+
+fn cachewrite(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
+    let var = cache_var(&a)?;
+    let field = a.get(1)?.as_field()?;
+    let width = field.kind().width();
+    let label = format!(
+        "cachewrite at {}",
+        diagnostic::location(interp.call_span, &interp.sources.borrow())
+    );
+    let cache = Cache::from_field(
+        (*var.domain).clone(),
+        width,
+        CompiledField::shared(&field),
+        var.background.clone(),
+        label,
+    )?;
+    let cache = Arc::new(cache);
+    interp
+        .written_caches
+        .push((Arc::downgrade(&cache), interp.call_span));
+    *var.state.borrow_mut() = Some(cache);
+    Ok(Value::Void)
+}
+
+fn written(a: &Args) -> Outcome<Arc<Cache>> {
+    let var = cache_var(a)?;
+    let state = var.state.borrow();
+    state.clone().ok_or_else(|| {
+        Failure::new("this cache was never written").with_help("call cachewrite(c, field) first")
+    })
+}
+
+fn cacheread(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
+    let var = cache_var(&a)?;
+    let interp_kind = match a.opt(1) {
+        None => Interp::Linear,
+        Some(v) => match v.as_str()? {
+            "linear" => Interp::Linear,
+            "cubic" => Interp::Cubic,
+            other => {
+                return Err(Failure::new(format!(
+                    "interp must be \"linear\" or \"cubic\", found \"{other}\""
+                )));
+            }
+        },
+    };
+    let derivative = match a.opt(2) {
+        None => GridDerivative::Interpolant,
+        Some(v) => match v.as_str()? {
+            "interpolant" => GridDerivative::Interpolant,
+            "central" => GridDerivative::Central,
+            other => {
+                return Err(Failure::new(format!(
+                    "derivative must be \"interpolant\" or \"central\", found \"{other}\""
+                )));
+            }
+        },
+    };
+    let state = var.state.borrow().clone();
+    let field = match state {
+        Some(cache) => {
+            let grid: Arc<dyn GridSource> = cache;
+            Field::from_grid(grid, interp_kind, derivative)?
+        }
+        None => {
+            interp.warnings.push(
+                Diagnostic::warning(
+                    Stage::Runtime,
+                    interp.call_span,
+                    "this cache was never written; reading it gives its background everywhere",
+                )
+                .with_help("call cachewrite(c, field) before cacheread(c)"),
+            );
+            constant_of(var.shape, &var.background)
+        }
+    };
+    Ok(Value::Field(field))
+}
+
+fn constant_of(shape: Shape, background: &[f64]) -> Field {
+    match shape {
+        Shape::Scalar => Field::constant_scalar(background[0]),
+        Shape::Vector => Field::constant_vector(DVec3::from_slice(background)),
+        Shape::Matrix => Field::constant_matrix(DMat3::from_cols_array(&[
+            background[0],
+            background[3],
+            background[6],
+            background[1],
+            background[4],
+            background[7],
+            background[2],
+            background[5],
+            background[8],
+        ])),
+    }
+}
+
+/// `"a.vdb#name"` → (`"a.vdb"`, `Some("name")`).
+fn split_grid_name(path: &str) -> (&str, Option<&str>) {
+    match path.rsplit_once('#') {
+        Some((file, name)) if !name.is_empty() => (file, Some(name)),
+        _ => (path, None),
+    }
+}
+
+/// Reports non-finite values of a cache now (after a full fill) instead of at the end of the run.
+fn report_now(interp: &mut Interpreter, cache: &Arc<Cache>) {
+    interp
+        .written_caches
+        .retain(|(w, _)| !std::ptr::eq(w.as_ptr(), Arc::as_ptr(cache)));
+    report_nonfinite(interp, cache, interp.call_span);
+}
+
+/// A warning when a cache holds NaN or infinite values (division by zero in its field).
+pub fn report_nonfinite(interp: &mut Interpreter, cache: &Cache, span: crate::syntax::span::Span) {
+    if let Some((count, at)) = cache.nonfinite_report() {
+        interp.warnings.push(
+            Diagnostic::warning(
+                Stage::Runtime,
+                span,
+                format!(
+                    "{count} non-finite value{} written into this cache, the first at ({}, {}, {})",
+                    if count == 1 { "" } else { "s" },
+                    at.x,
+                    at.y,
+                    at.z
+                ),
+            )
+            .with_help("a division by a field that is zero somewhere gives infinities or NaN; guard it with select or max"),
+        );
+    }
+}

@@ -1,0 +1,23 @@
+//! The builtins, grouped by capability. Each group registers its entries in the one registry;
+//! adding a capability means adding a group here, nothing else.
+
+mod core;
+mod fields;
+pub mod format;
+mod geometry;
+pub mod grids;
+mod math;
+mod modeling;
+mod rendering;
+
+use super::registry::Registry;
+
+pub fn register_all(r: &mut Registry) {
+    core::register(r);
+    math::register(r);
+    fields::register(r);
+    grids::register(r);
+    modeling::register(r);
+    rendering::register(r);
+    geometry::register(r);
+}

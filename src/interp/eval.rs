@@ -1,0 +1,286 @@
+//! Expressions and calls. Builtin calls resolve their signature again from the runtime types
+//! (the same rules the checker used, so the same form is chosen) and receive their arguments
+//! converted to that form's parameter types.
+
+use super::registry::{self, Args, Resolution};
+use super::value::{Value, matrix_from_rows};
+use super::{CallSite, Flow, Frame, Interpreter, MAX_CALL_DEPTH};
+use crate::check::types::{Type, unify};
+use crate::diagnostic::Diagnostic;
+use crate::failure::Failure;
+use crate::field::Field;
+use crate::interp::ops;
+use crate::syntax::ast::*;
+use crate::syntax::span::Span;
+use std::collections::HashMap;
+
+impl Interpreter {
+    pub fn eval(&mut self, e: &Expr) -> Result<Value, Diagnostic> {
+        match &e.kind {
+            ExprKind::Int(i) => Ok(Value::Int(*i)),
+            ExprKind::Float(x) => Ok(Value::Float(*x)),
+            ExprKind::Bool(b) => Ok(Value::Bool(*b)),
+            ExprKind::Str(s) => Ok(Value::string(s)),
+            ExprKind::Var(name) => match self.lookup(&name.name) {
+                Some(slot) => Ok(slot.value.clone()),
+                None => Err(self.error(
+                    name.span,
+                    Failure::new(format!(
+                        "`{}` is used before its declaration has run",
+                        name.name
+                    )),
+                )),
+            },
+            ExprKind::Tuple(items) => {
+                let values = items
+                    .iter()
+                    .map(|i| self.eval(i))
+                    .collect::<Result<Vec<_>, _>>()?;
+                tuple(values).map_err(|f| self.error(e.span, f))
+            }
+            ExprKind::Array(items) => {
+                let values = items
+                    .iter()
+                    .map(|i| self.eval(i))
+                    .collect::<Result<Vec<_>, _>>()?;
+                let mut elem: Option<Type> = None;
+                for v in &values {
+                    let t = v.type_of();
+                    elem = Some(match elem {
+                        None => t,
+                        Some(prev) => unify(&prev, &t).unwrap_or(prev),
+                    });
+                }
+                let elem = elem.unwrap_or(Type::Error);
+                let converted = values.into_iter().map(|v| v.convert(&elem)).collect();
+                Ok(Value::array(converted, elem))
+            }
+            ExprKind::Unary(op, operand) => {
+                let v = self.eval(operand)?;
+                ops::unary(*op, v).map_err(|f| self.error(e.span, f))
+            }
+            ExprKind::Binary(BinaryOp::And, l, r) => {
+                let left = self.eval(l)?.as_bool().map_err(|f| self.error(l.span, f))?;
+                if !left {
+                    return Ok(Value::Bool(false));
+                }
+                let right = self.eval(r)?.as_bool().map_err(|f| self.error(r.span, f))?;
+                Ok(Value::Bool(right))
+            }
+            ExprKind::Binary(BinaryOp::Or, l, r) => {
+                let left = self.eval(l)?.as_bool().map_err(|f| self.error(l.span, f))?;
+                if left {
+                    return Ok(Value::Bool(true));
+                }
+                let right = self.eval(r)?.as_bool().map_err(|f| self.error(r.span, f))?;
+                Ok(Value::Bool(right))
+            }
+            ExprKind::Binary(op, l, r) => {
+                let left = self.eval(l)?;
+                let right = self.eval(r)?;
+                ops::binary(*op, left, right).map_err(|f| self.error(e.span, f))
+            }
+            ExprKind::Call { callee, args } => self.call(e.span, callee, args),
+            ExprKind::Index(base, index) => {
+                let b = self.eval(base)?;
+                let i = self
+                    .eval(index)?
+                    .as_int()
+                    .map_err(|f| self.error(index.span, f))?;
+                index_value(&b, i).map_err(|f| self.error(index.span, f))
+            }
+            ExprKind::Member(base, member) => {
+                let b = self.eval(base)?;
+                let axis = match member.name.as_str() {
+                    "x" => 0,
+                    "y" => 1,
+                    "z" => 2,
+                    other => {
+                        return Err(self
+                            .error(member.span, Failure::new(format!("no component `{other}`"))));
+                    }
+                };
+                match b {
+                    Value::Vector(v) => Ok(Value::Float(v[axis])),
+                    Value::Field(f) => f
+                        .component(axis)
+                        .map(Value::Field)
+                        .map_err(|f| self.error(e.span, f)),
+                    other => Err(self.error(
+                        member.span,
+                        Failure::new(format!(
+                            "a {} has no component `.{}`",
+                            other.type_of(),
+                            member.name
+                        )),
+                    )),
+                }
+            }
+        }
+    }
+
+    fn call(&mut self, span: Span, callee: &Ident, args: &[Arg]) -> Result<Value, Diagnostic> {
+        if let Some(function) = self.functions.get(&callee.name).cloned() {
+            return self.call_function(span, &function, args);
+        }
+        self.call_builtin(&callee.name, span, args)
+    }
+
+    fn call_function(
+        &mut self,
+        span: Span,
+        function: &FuncDecl,
+        args: &[Arg],
+    ) -> Result<Value, Diagnostic> {
+        self.check_interrupt(span)?;
+        if self.calls.len() >= MAX_CALL_DEPTH {
+            return Err(self.error(
+                span,
+                Failure::new(format!(
+                    "function calls nested deeper than {MAX_CALL_DEPTH}"
+                ))
+                .with_help("a recursive function needs a case that stops the recursion"),
+            ));
+        }
+        let mut scope = HashMap::new();
+        for (param, arg) in function.params.iter().zip(args) {
+            let value = self.eval(&arg.value)?;
+            let ty = Type::from_expr(&param.ty);
+            scope.insert(
+                param.name.name.clone(),
+                super::Slot {
+                    value: value.convert(&ty),
+                    ty,
+                },
+            );
+        }
+        self.calls.push(CallSite {
+            function: function.name.name.clone(),
+            span,
+        });
+        self.frames.push(Frame {
+            scopes: vec![scope],
+        });
+        let flow = self.exec_block(&function.body);
+        self.frames.pop();
+        self.calls.pop();
+        let ret = Type::from_expr(&function.ret);
+        match flow? {
+            Flow::Return(v) => Ok(v.convert(&ret)),
+            _ if ret == Type::Void => Ok(Value::Void),
+            _ => Err(self.error(
+                span,
+                Failure::new(format!(
+                    "`{}` ended without returning a value",
+                    function.name.name
+                )),
+            )),
+        }
+    }
+
+    /// Calls builtin `name` with script arguments: resolves the form, converts, runs.
+    pub(crate) fn call_builtin(
+        &mut self,
+        name: &str,
+        span: Span,
+        args: &[Arg],
+    ) -> Result<Value, Diagnostic> {
+        let Some(builtin) = registry::registry().get(name) else {
+            return Err(self.error(span, Failure::new(format!("unknown function `{name}`"))));
+        };
+        let mut values = Vec::with_capacity(args.len());
+        for a in args {
+            values.push(self.eval(&a.value)?);
+        }
+        let types: Vec<Type> = values.iter().map(|v| v.type_of()).collect();
+        let names: Vec<Option<String>> = args
+            .iter()
+            .map(|a| a.name.as_ref().map(|n| n.name.clone()))
+            .collect();
+        let (form, slots, rest) = match registry::resolve(builtin, &types, &names) {
+            Resolution::Match { form, slots, rest } => (form, slots, rest),
+            Resolution::Mismatch { message, arg, help } => {
+                let at = arg.map(|i| args[i].span).unwrap_or(span);
+                let mut f = Failure::new(message);
+                f.help = help;
+                return Err(self.error(at, f));
+            }
+        };
+        let sig = &builtin.signatures[form];
+        let mut taken: Vec<Option<Value>> = values.into_iter().map(Some).collect();
+        let converted = slots
+            .iter()
+            .zip(&sig.params)
+            .map(|(slot, param)| {
+                slot.and_then(|i| taken[i].take()).map(|v| match &param.ty {
+                    registry::ParamType::Exact(t) => v.convert(t),
+                    _ => v,
+                })
+            })
+            .collect();
+        let rest = rest.iter().filter_map(|i| taken[*i].take()).collect();
+        let previous = std::mem::replace(&mut self.call_span, span);
+        let result = (builtin.run)(
+            self,
+            Args {
+                values: converted,
+                rest,
+                form,
+            },
+        );
+        self.call_span = previous;
+        result.map_err(|f| self.error(span, f))
+    }
+}
+
+/// `(a, b, c)`: a vector from numbers, a matrix from vectors (rows), or the field versions.
+fn tuple(values: Vec<Value>) -> Result<Value, Failure> {
+    let [a, b, c]: [Value; 3] = values.try_into().map_err(|v: Vec<Value>| {
+        Failure::new(format!(
+            "a vector literal has 3 components, found {}",
+            v.len()
+        ))
+    })?;
+    let any_field = [&a, &b, &c].iter().any(|v| matches!(v, Value::Field(_)));
+    match (&a, &b, &c) {
+        (Value::Vector(r0), Value::Vector(r1), Value::Vector(r2)) => {
+            Ok(Value::Matrix(matrix_from_rows(*r0, *r1, *r2)))
+        }
+        _ if any_field => {
+            let (fa, fb, fc) = (a.as_field()?, b.as_field()?, c.as_field()?);
+            if fa.kind() == crate::field::FieldKind::Vector {
+                Field::matrix_from_rows(&fa, &fb, &fc).map(Value::Field)
+            } else {
+                Field::vector_from(&fa, &fb, &fc).map(Value::Field)
+            }
+        }
+        _ => Ok(Value::Vector(glam::DVec3::new(
+            a.as_float()?,
+            b.as_float()?,
+            c.as_float()?,
+        ))),
+    }
+}
+
+fn index_value(base: &Value, i: i64) -> Result<Value, Failure> {
+    let out_of_range =
+        |len: usize| Failure::new(format!("index {i} is out of range for size {len}"));
+    match base {
+        Value::Array(items, _) => usize::try_from(i)
+            .ok()
+            .and_then(|u| items.get(u).cloned())
+            .ok_or_else(|| out_of_range(items.len())),
+        Value::Vector(v) => match i {
+            0..=2 => Ok(Value::Float(v[i as usize])),
+            _ => Err(out_of_range(3)),
+        },
+        Value::Matrix(m) => match i {
+            0..=2 => Ok(Value::Vector(m.row(i as usize))),
+            _ => Err(out_of_range(3)),
+        },
+        other => Err(Failure::new(format!(
+            "a {} cannot be indexed",
+            other.type_of()
+        ))),
+    }
+}

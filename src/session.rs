@@ -1,0 +1,375 @@
+//! A session ties the stages together for one run or one REPL: it owns the source files, the
+//! checker's environment and the interpreter, loads the standard library, follows imports
+//! (relative to the importing file, each file once, cycles reported with the chain), checks
+//! everything before running anything, and hands diagnostics back as values.
+
+use crate::check::{self, CheckEnv};
+use crate::diagnostic::{Diagnostic, Stage};
+use crate::interp::value::Value;
+use crate::interp::{Interpreter, suggest};
+use crate::syntax;
+use crate::syntax::ast::{DeclInit, Item, Program, StmtKind};
+use crate::syntax::span::{FileId, SourceMap, Span};
+use std::cell::RefCell;
+use std::collections::HashSet;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::rc::Rc;
+
+/// The standard library, compiled into the binary so felt runs from anywhere.
+pub const STDLIB: &[(&str, &str)] = &[
+    ("stdlib/cumulo.felt", include_str!("../stdlib/cumulo.felt")),
+    ("stdlib/knives.felt", include_str!("../stdlib/knives.felt")),
+    (
+        "stdlib/pyroclastic.felt",
+        include_str!("../stdlib/pyroclastic.felt"),
+    ),
+];
+
+/// One parsed file, ready to check and run.
+pub struct Unit {
+    pub file: FileId,
+    pub program: Program,
+}
+
+/// The standard library failed to load: an installation problem, reported like a script error.
+pub struct StartupFailure {
+    pub sources: SourceMap,
+    pub diagnostics: Vec<Diagnostic>,
+}
+
+pub struct Session {
+    pub sources: Rc<RefCell<SourceMap>>,
+    pub env: CheckEnv,
+    pub interp: Interpreter,
+    /// Canonical paths of the files already loaded (imports run once).
+    loaded: HashSet<PathBuf>,
+    repl_inputs: usize,
+}
+
+impl Session {
+    /// A session with the standard library loaded; `print` writes to `out`.
+    pub fn new(out: Box<dyn Write>) -> Result<Session, StartupFailure> {
+        let sources = Rc::new(RefCell::new(SourceMap::default()));
+        let mut session = Session {
+            interp: Interpreter::new(sources.clone(), out),
+            sources,
+            env: CheckEnv::default(),
+            loaded: HashSet::new(),
+            repl_inputs: 0,
+        };
+        let mut units = Vec::new();
+        for (name, text) in STDLIB {
+            match session.parse_text(name, text) {
+                Ok(unit) => units.push(unit),
+                Err(diagnostics) => return Err(session.startup_failure(diagnostics)),
+            }
+        }
+        let mut diags = Vec::new();
+        for unit in &units {
+            diags.extend(check::collect_functions(
+                &mut session.env,
+                &unit.program,
+                true,
+            ));
+        }
+        for unit in &units {
+            diags.extend(check::check_program(&mut session.env, &unit.program));
+        }
+        if diags.iter().any(|d| d.is_error()) {
+            return Err(session.startup_failure(diags));
+        }
+        for unit in &units {
+            session.interp.define_functions(&unit.program);
+        }
+        Ok(session)
+    }
+
+    fn startup_failure(self, diagnostics: Vec<Diagnostic>) -> StartupFailure {
+        let sources = std::mem::take(&mut *self.sources.borrow_mut());
+        StartupFailure {
+            sources,
+            diagnostics,
+        }
+    }
+
+    fn parse_text(&mut self, name: &str, text: &str) -> Result<Unit, Vec<Diagnostic>> {
+        let file = self.sources.borrow_mut().add(name, text);
+        let program = syntax::parse(file, text).map_err(|errors| {
+            errors
+                .into_iter()
+                .map(|e| Diagnostic::error(Stage::Syntax, e.span, e.message).with_help_opt(e.help))
+                .collect::<Vec<_>>()
+        })?;
+        Ok(Unit { file, program })
+    }
+
+    /// Parses a script and, first, everything it imports (depth first, each file once).
+    pub fn load(&mut self, path: &Path) -> Result<Vec<Unit>, Vec<Diagnostic>> {
+        let mut units = Vec::new();
+        let mut stack = Vec::new();
+        self.load_recursive(path, None, &mut stack, &mut units)?;
+        Ok(units)
+    }
+
+    fn load_recursive(
+        &mut self,
+        path: &Path,
+        imported_at: Option<Span>,
+        stack: &mut Vec<PathBuf>,
+        units: &mut Vec<Unit>,
+    ) -> Result<(), Vec<Diagnostic>> {
+        let read_error = |message: String| match imported_at {
+            Some(span) => Diagnostic::error(Stage::Name, span, message).with_label("imported here"),
+            None => Diagnostic::bare(Stage::Usage, message),
+        };
+        let canonical = path.canonicalize().map_err(|e| {
+            vec![read_error(format!(
+                "cannot read `{}`: {}",
+                path.display(),
+                e
+            ))]
+        })?;
+        if let Some(position) = stack.iter().position(|p| *p == canonical) {
+            let mut chain: Vec<String> =
+                stack[position..].iter().map(|p| display_name(p)).collect();
+            chain.push(display_name(&canonical));
+            return Err(vec![
+                read_error(format!("import cycle: {}", chain.join(" → ")))
+                    .with_help("a file cannot import itself, directly or through other files"),
+            ]);
+        }
+        if !self.loaded.insert(canonical.clone()) {
+            return Ok(());
+        }
+        let text = std::fs::read(&canonical).map_err(|e| {
+            vec![read_error(format!(
+                "cannot read `{}`: {}",
+                path.display(),
+                e
+            ))]
+        })?;
+        let text = String::from_utf8(text).map_err(|e| {
+            vec![read_error(format!(
+                "`{}` is not UTF-8 text (invalid byte at offset {})",
+                path.display(),
+                e.utf8_error().valid_up_to()
+            ))]
+        })?;
+        let unit = self.parse_text(&path.display().to_string(), &text)?;
+        stack.push(canonical.clone());
+        let base = canonical
+            .parent()
+            .map(Path::to_path_buf)
+            .unwrap_or_default();
+        for item in &unit.program.items {
+            if let Item::Import(import) = item {
+                self.load_recursive(&base.join(&import.path), Some(import.span), stack, units)?;
+            }
+        }
+        stack.pop();
+        units.push(unit);
+        Ok(())
+    }
+
+    /// Checks units against the session's environment; returns every diagnostic (warnings
+    /// included). The environment keeps the new functions and globals only if there is no
+    /// error.
+    pub fn check(&mut self, units: &[Unit]) -> Vec<Diagnostic> {
+        let mut env = self.env.clone();
+        let mut diags = Vec::new();
+        for unit in units {
+            diags.extend(check::collect_functions(&mut env, &unit.program, false));
+        }
+        for unit in units {
+            diags.extend(check::check_program(&mut env, &unit.program));
+        }
+        if !diags.iter().any(|d| d.is_error()) {
+            self.env = env;
+        }
+        diags
+    }
+
+    /// Verifies that every `--set NAME=VALUE` names a `param` of the loaded script.
+    pub fn check_overrides(&self, units: &[Unit]) -> Result<(), Diagnostic> {
+        let mut params = Vec::new();
+        for unit in units {
+            for item in &unit.program.items {
+                if let Item::Stmt(stmt) = item
+                    && let StmtKind::Decl {
+                        is_param: true,
+                        name,
+                        ..
+                    } = &stmt.kind
+                {
+                    params.push(name.name.clone());
+                }
+            }
+        }
+        for name in self.interp.overrides.keys() {
+            if !params.contains(name) {
+                let mut d = Diagnostic::bare(
+                    Stage::Usage,
+                    format!("--set {name}: the script has no param named `{name}`"),
+                );
+                d.help = suggest::closest(name, params.iter().map(|s| s.as_str()))
+                    .map(|s| format!("did you mean `{s}`?"))
+                    .or_else(|| {
+                        Some(if params.is_empty() {
+                            String::from("the script declares no params")
+                        } else {
+                            format!("the script's params are: {}", params.join(", "))
+                        })
+                    });
+                return Err(d);
+            }
+        }
+        Ok(())
+    }
+
+    /// Runs checked units in order; expression statements' values go to `on_value`.
+    pub fn run(
+        &mut self,
+        units: &[Unit],
+        on_value: &mut dyn FnMut(&mut Interpreter, Value),
+    ) -> Result<(), Diagnostic> {
+        for unit in units {
+            self.interp.run_program(&unit.program, on_value)?;
+        }
+        Ok(())
+    }
+
+    /// Loads, checks and runs a script file. Returns warnings on success.
+    pub fn run_file(&mut self, path: &Path) -> Result<Vec<Diagnostic>, Vec<Diagnostic>> {
+        let units = self.load(path)?;
+        let diags = self.check(&units);
+        if diags.iter().any(|d| d.is_error()) {
+            return Err(diags);
+        }
+        self.check_overrides(&units).map_err(|d| vec![d])?;
+        self.run(&units, &mut |_, _| {}).map_err(|d| {
+            let mut all = diags.clone();
+            all.push(d);
+            all
+        })?;
+        Ok(diags)
+    }
+
+    /// Evaluates one REPL input (possibly several statements and functions). Values of
+    /// expression statements go to `on_value`. On an error the session's state stays as it
+    /// was before the statement that failed.
+    pub fn eval_input(
+        &mut self,
+        text: &str,
+        on_value: &mut dyn FnMut(&mut Interpreter, Value),
+    ) -> Result<Vec<Diagnostic>, Vec<Diagnostic>> {
+        self.repl_inputs += 1;
+        let name = format!("<input {}>", self.repl_inputs);
+        self.env.allow_redeclare = true;
+        // At the prompt a lone expression or statement may omit its final `;`.
+        let trimmed = text.trim_end();
+        let text = if trimmed.ends_with(';') || trimmed.ends_with('}') {
+            trimmed.to_string()
+        } else {
+            format!("{trimmed};")
+        };
+        let unit = self.parse_text(&name, &text)?;
+        let mut units = Vec::new();
+        let mut stack = Vec::new();
+        for item in &unit.program.items {
+            if let Item::Import(import) = item {
+                self.load_recursive(
+                    Path::new(&import.path),
+                    Some(import.span),
+                    &mut stack,
+                    &mut units,
+                )?;
+            }
+        }
+        units.push(unit);
+        let diags = self.check(&units);
+        if diags.iter().any(|d| d.is_error()) {
+            return Err(diags);
+        }
+        match self.run(&units, on_value) {
+            Ok(()) => Ok(diags),
+            Err(d) => {
+                // Globals the checker now knows but whose declarations never ran are
+                // forgotten, so the session stays consistent.
+                let interp = &self.interp;
+                self.env
+                    .globals
+                    .retain(|name, _| interp.global(name).is_some());
+                Err(vec![d])
+            }
+        }
+    }
+
+    /// After a run: the warnings found while running, including caches that ended up holding
+    /// non-finite values.
+    pub fn finish(&mut self) -> Vec<Diagnostic> {
+        for (cache, span) in std::mem::take(&mut self.interp.written_caches) {
+            if let Some(cache) = cache.upgrade() {
+                crate::interp::builtins::grids::report_nonfinite(&mut self.interp, &cache, span);
+            }
+        }
+        std::mem::take(&mut self.interp.warnings)
+    }
+
+    /// The `--profile` table: every grid-producing operation that ran (kind, source line,
+    /// bricks filled of total, seconds, bytes), then the count of those never evaluated.
+    pub fn profile_report() -> String {
+        let entries = crate::grid::profile::report();
+        let (ran, never): (Vec<_>, Vec<_>) = entries
+            .into_iter()
+            .partition(|e| e.bricks_filled + e.bricks_skipped > 0 || e.seconds > 0.0);
+        let mut text = String::from("profile: grids computed\n");
+        text.push_str(&crate::grid::profile::format_table(&ran));
+        text.push_str(&format!(
+            "{} grid node{} never evaluated",
+            never.len(),
+            if never.len() == 1 { "" } else { "s" }
+        ));
+        if !never.is_empty() {
+            let labels: Vec<String> = never
+                .iter()
+                .map(|e| format!("{} ({})", e.label, e.kind))
+                .collect();
+            text.push_str(&format!(": {}", labels.join(", ")));
+        }
+        text.push('\n');
+        text
+    }
+
+    /// The type of an expression, for the REPL's `:type`.
+    pub fn type_of(&mut self, text: &str) -> Result<String, Vec<Diagnostic>> {
+        self.repl_inputs += 1;
+        let name = format!("<input {}>", self.repl_inputs);
+        let unit = self.parse_text(&name, &format!("{text};"))?;
+        let [Item::Stmt(stmt)] = unit.program.items.as_slice() else {
+            return Err(vec![Diagnostic::bare(
+                Stage::Usage,
+                ":type takes one expression",
+            )]);
+        };
+        let (StmtKind::Expr(e)
+        | StmtKind::Decl {
+            init: DeclInit::Expr(e),
+            ..
+        }) = &stmt.kind
+        else {
+            return Err(vec![Diagnostic::bare(
+                Stage::Usage,
+                ":type takes one expression",
+            )]);
+        };
+        let mut env = self.env.clone();
+        check::type_of_expr(&mut env, e).map(|t| t.to_string())
+    }
+}
+
+fn display_name(path: &Path) -> String {
+    path.file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| path.display().to_string())
+}

@@ -1,0 +1,170 @@
+//! The `felt` command as a user runs it: exit codes, `check`, `doc`, `--set`, and the REPL
+//! driven through a real terminal (tmux), when tmux is installed.
+
+use std::path::Path;
+use std::process::Command;
+
+fn felt() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_felt"))
+}
+
+#[test]
+fn exit_codes_follow_the_outcome() {
+    let ok = felt()
+        .args(["run", "tests/scripts/lang/values.felt"])
+        .output()
+        .unwrap();
+    assert_eq!(
+        ok.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+    let script_error = felt()
+        .args(["run", "tests/scripts/errors/unknown_variable.felt"])
+        .output()
+        .unwrap();
+    assert_eq!(script_error.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&script_error.stderr);
+    assert!(stderr.contains("unknown_variable.felt:2:7"), "{stderr}");
+    let usage = felt().args(["run"]).output().unwrap();
+    assert_eq!(usage.status.code(), Some(2));
+    let bad_set = felt()
+        .args(["run", "tests/scripts/lang/params.felt", "--set", "nosuch=1"])
+        .output()
+        .unwrap();
+    assert_eq!(bad_set.status.code(), Some(2));
+    let missing = felt()
+        .args(["run", "tests/scripts/does_not_exist.felt"])
+        .output()
+        .unwrap();
+    assert_eq!(missing.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&missing.stderr).contains("cannot read"));
+}
+
+#[test]
+fn set_overrides_params_from_the_command_line() {
+    let out = felt()
+        .args([
+            "run",
+            "tests/scripts/lang/params.felt",
+            "--set",
+            "step=0.5",
+            "--set",
+            "name=take2",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(
+        String::from_utf8_lossy(&out.stdout),
+        "0.5 3 take2 (0.0, 1.0, 0.0)\n"
+    );
+}
+
+#[test]
+fn check_reports_without_running() {
+    let out = felt()
+        .args(["check", "tests/scripts/lang/strings.felt"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(0));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("no errors"));
+    let bad = felt()
+        .args(["check", "tests/scripts/errors/several_errors.felt"])
+        .output()
+        .unwrap();
+    assert_eq!(bad.status.code(), Some(1));
+    assert_eq!(
+        String::from_utf8_lossy(&bad.stderr)
+            .matches("felt::type")
+            .count(),
+        3
+    );
+}
+
+#[test]
+fn doc_lists_and_describes_builtins() {
+    let index = felt().args(["doc"]).output().unwrap();
+    let text = String::from_utf8_lossy(&index.stdout);
+    assert!(text.contains("print") && text.contains("format"), "{text}");
+    let one = felt().args(["doc", "size"]).output().unwrap();
+    let text = String::from_utf8_lossy(&one.stdout);
+    assert!(text.contains("size(any[] a) -> int"), "{text}");
+    let unknown = felt().args(["doc", "sise"]).output().unwrap();
+    assert_eq!(unknown.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&unknown.stderr).contains("did you mean `size`?"));
+}
+
+/// Drives `felt repl` in a tmux pane: a function over several lines, a call, an error, and a
+/// session that keeps going with its state.
+#[test]
+fn repl_in_a_real_terminal() {
+    if Command::new("tmux").arg("-V").output().is_err() {
+        eprintln!("tmux not installed; skipping the terminal test");
+        return;
+    }
+    let session = format!("felt-test-{}", std::process::id());
+    let history = tempfile::NamedTempFile::new().unwrap();
+    let exe = Path::new(env!("CARGO_BIN_EXE_felt"));
+    let tmux = |args: &[&str]| Command::new("tmux").args(args).output().unwrap();
+    let started = tmux(&[
+        "new-session",
+        "-d",
+        "-s",
+        &session,
+        "-x",
+        "120",
+        "-y",
+        "50",
+        &format!(
+            "FELT_HISTORY={} {} repl",
+            history.path().display(),
+            exe.display()
+        ),
+    ]);
+    assert!(
+        started.status.success(),
+        "{}",
+        String::from_utf8_lossy(&started.stderr)
+    );
+    let wait_for = |needle: &str| -> String {
+        for _ in 0..100 {
+            std::thread::sleep(std::time::Duration::from_millis(50));
+            let pane =
+                String::from_utf8_lossy(&tmux(&["capture-pane", "-p", "-t", &session]).stdout)
+                    .into_owned();
+            if pane.contains(needle) {
+                return pane;
+            }
+        }
+        let pane = String::from_utf8_lossy(&tmux(&["capture-pane", "-p", "-t", &session]).stdout)
+            .into_owned();
+        tmux(&["kill-session", "-t", &session]);
+        panic!("`{needle}` never appeared:\n{pane}");
+    };
+    let send = |line: &str| {
+        // tmux reads a trailing `;` as its own command separator unless escaped.
+        let line = match line.strip_suffix(';') {
+            Some(head) => format!("{head}\\;"),
+            None => line.to_string(),
+        };
+        tmux(&["send-keys", "-t", &session, "-l", &line]);
+        tmux(&["send-keys", "-t", &session, "Enter"]);
+    };
+    wait_for("felt>");
+    send("func float cube(float x) {");
+    send("    return x * x * x;");
+    send("}");
+    send("cube(3)");
+    wait_for("27.0");
+    send("cube(undefined_name)");
+    wait_for("unknown variable `undefined_name`");
+    send("float y = cube(2) + 1");
+    send("y * 2");
+    wait_for("18.0");
+    send(":type y");
+    let pane = wait_for("float");
+    tmux(&["send-keys", "-t", &session, ":quit", "Enter"]);
+    tmux(&["kill-session", "-t", &session]);
+    assert!(pane.contains("felt>"));
+}

@@ -1,0 +1,73 @@
+//! Helpers shared by the integration tests: run a script through the library with its output
+//! captured, and render diagnostics as plain text.
+
+#![allow(dead_code)]
+
+use felt::diagnostic::{self, Diagnostic};
+use felt::session::Session;
+use std::cell::RefCell;
+use std::io::Write;
+use std::path::Path;
+use std::rc::Rc;
+
+/// A `Write` that keeps what it was given, shared with the test.
+#[derive(Clone, Default)]
+pub struct Captured(pub Rc<RefCell<Vec<u8>>>);
+
+impl Write for Captured {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.0.borrow_mut().extend_from_slice(buf);
+        Ok(buf.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+impl Captured {
+    pub fn text(&self) -> String {
+        String::from_utf8_lossy(&self.0.borrow()).into_owned()
+    }
+}
+
+/// What running a script produced.
+pub struct Outcome {
+    pub output: String,
+    pub diagnostics: Vec<Diagnostic>,
+    pub rendered: String,
+    pub ok: bool,
+}
+
+pub fn run_script(path: &Path, overrides: &[(&str, &str)]) -> Outcome {
+    let out = Captured::default();
+    let mut session = Session::new(Box::new(out.clone())).unwrap_or_else(|f| {
+        panic!(
+            "{}",
+            felt::diagnostic::render(&f.diagnostics, &f.sources, false)
+        )
+    });
+    session.interp.overrides = overrides
+        .iter()
+        .map(|(k, v)| (k.to_string(), v.to_string()))
+        .collect();
+    let (ok, mut diagnostics) = match session.run_file(path) {
+        Ok(w) => (true, w),
+        Err(d) => (false, d),
+    };
+    diagnostics.extend(session.finish());
+    let rendered = diagnostic::render(&diagnostics, &session.sources.borrow(), false);
+    Outcome {
+        output: out.text(),
+        diagnostics,
+        rendered,
+        ok,
+    }
+}
+
+/// Runs source text given inline (written to a temporary file so imports and names work).
+pub fn run_source(name: &str, source: &str) -> Outcome {
+    let dir = tempfile::tempdir().expect("temporary directory");
+    let path = dir.path().join(name);
+    std::fs::write(&path, source).expect("write script");
+    run_script(&path, &[])
+}

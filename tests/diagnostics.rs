@@ -1,0 +1,106 @@
+//! Diagnostics as the script author sees them. Each broken script under
+//! `tests/scripts/errors` must yield exactly one error, at the line and column listed here
+//! (worked out by hand from the script text), and its rendered text is snapshot-tested so that
+//! changes to wording or layout are reviewed.
+
+mod common;
+
+use std::path::Path;
+
+/// (script, line, column of the primary span, a phrase the message must contain)
+const CASES: &[(&str, usize, usize, &str)] = &[
+    ("missing_semicolon", 1, 14, "`;`"),
+    ("unknown_character", 2, 13, "`@`"),
+    ("unterminated_string", 1, 12, "unterminated string"),
+    ("unknown_variable", 2, 7, "unknown variable `radus`"),
+    ("unknown_function", 2, 11, "unknown function `lenght`"),
+    ("vector_plus_float", 2, 12, "cannot add vector and float"),
+    (
+        "field_kind_mismatch",
+        3,
+        19,
+        "cannot add scalarfield and vectorfield",
+    ),
+    ("wrong_arity", 1, 11, "clamp"),
+    ("missing_return", 1, 12, "without returning a float"),
+    ("break_outside_loop", 2, 1, "`break` outside a loop"),
+    ("assign_undeclared", 2, 1, "undeclared variable `total`"),
+    ("index_out_of_range", 2, 8, "index 5 is out of range"),
+    ("runaway_recursion", 2, 12, "nested deeper than"),
+    ("runtime_call_stack", 2, 12, "integer division by zero"),
+    (
+        "keyword_to_script_function",
+        2,
+        13,
+        "positional arguments only",
+    ),
+    (
+        "field_comparison",
+        2,
+        5,
+        "fields have a value at every point",
+    ),
+    ("condition_not_bool", 2, 8, "condition must be a bool"),
+    ("duplicate_declaration", 2, 7, "already declared"),
+    ("negative_domain", 1, 1, "must be positive"),
+    ("singular_matrix", 2, 14, "singular"),
+    ("cycle_a", 1, 1, "import cycle"),
+];
+
+#[test]
+fn each_broken_script_gives_one_diagnostic_at_the_right_place() {
+    let mut failures = Vec::new();
+    for (name, line, column, phrase) in CASES {
+        let path = Path::new("tests/scripts/errors").join(format!("{name}.felt"));
+        let outcome = common::run_script(&path, &[]);
+        let errors: Vec<_> = outcome
+            .diagnostics
+            .iter()
+            .filter(|d| d.is_error())
+            .collect();
+        if outcome.ok || errors.len() != 1 {
+            failures.push(format!(
+                "{name}: expected one error, got {}:\n{}",
+                errors.len(),
+                outcome.rendered
+            ));
+            continue;
+        }
+        let expected = format!(":{line}:{column}]");
+        if !outcome.rendered.contains(&expected) || !outcome.rendered.contains(phrase) {
+            failures.push(format!(
+                "{name}: expected {expected} and `{phrase}` in:\n{}",
+                outcome.rendered
+            ));
+        }
+        insta::assert_snapshot!(*name, outcome.rendered);
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+#[test]
+fn runtime_errors_show_the_call_stack() {
+    let outcome = common::run_script(
+        Path::new("tests/scripts/errors/runtime_call_stack.felt"),
+        &[],
+    );
+    let error = &outcome.diagnostics[0];
+    let calls: Vec<_> = error.related.iter().map(|r| r.message.as_str()).collect();
+    assert_eq!(
+        calls,
+        [
+            "in `ratio`, called from here",
+            "in `relay`, called from here"
+        ]
+    );
+    assert!(
+        outcome.rendered.contains("runtime_call_stack.felt:5:12]"),
+        "{}",
+        outcome.rendered
+    );
+    assert!(
+        outcome.rendered.contains("runtime_call_stack.felt:7:7]"),
+        "{}",
+        outcome.rendered
+    );
+}
