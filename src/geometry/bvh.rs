@@ -9,7 +9,7 @@
 use glam::DVec3;
 
 /// The most triangles in a leaf.
-const LEAF: usize = 4;
+const LEAF: usize = 8;
 
 /// A box and a run of triangles `first..first + count`. An inner node's children are the
 /// nodes `child` and `child + 1`; a leaf has `child == 0` (the root is never a child).
@@ -42,6 +42,10 @@ pub struct Bvh {
     pub nodes: Vec<Node>,
     /// Triangle corners in tree order.
     pub triangles: Vec<[DVec3; 3]>,
+    /// Cheap lower bounds on each triangle's distance, tried before the exact one.
+    bounds: Vec<TriangleBound>,
+    /// The largest coordinate magnitude of the mesh, for the size of rounding errors.
+    magnitude: f64,
 }
 
 impl Bvh {
@@ -77,26 +81,45 @@ impl Bvh {
         }
         let original = std::mem::take(&mut triangles);
         triangles = order.iter().map(|&i| original[i as usize]).collect();
-        Bvh { nodes, triangles }
+        let bounds = triangles.iter().map(TriangleBound::new).collect();
+        let magnitude = nodes[0].min.abs().max(nodes[0].max.abs()).max_element();
+        Bvh {
+            nodes,
+            triangles,
+            bounds,
+            magnitude,
+        }
     }
 
     /// The squared distance from `p` to the nearest triangle, and that triangle's index (in
-    /// tree order). `hint` is a triangle whose distance starts the search as an upper bound;
-    /// the answer does not depend on it, only the time taken does.
-    pub fn nearest(&self, p: DVec3, hint: usize, stack: &mut Vec<u32>) -> (f64, usize) {
+    /// tree order). `hint` is a triangle whose distance starts the search as an upper bound.
+    /// The distance returned is the least computed distance over all triangles whatever the
+    /// hint: a node or triangle is skipped only when its lower bound exceeds the best so far by
+    /// more than any rounding error (`slack`), so the true minimiser is never skipped and the
+    /// result is bit-identical for any order of queries.
+    pub fn nearest(&self, p: DVec3, hint: usize, stack: &mut Vec<(u32, f64)>) -> (f64, usize) {
+        let slack = 1e-9 * (self.magnitude + p.abs().max_element());
         let mut best = (distance_squared(p, &self.triangles[hint]), hint);
+        let mut reach = best.0.sqrt() + slack;
+        let mut limit = reach * reach;
         stack.clear();
-        stack.push(0);
-        while let Some(index) = stack.pop() {
-            let node = &self.nodes[index as usize];
-            if node.distance_squared(p) >= best.0 {
+        stack.push((0, self.nodes[0].distance_squared(p)));
+        while let Some((index, gap)) = stack.pop() {
+            // The bound may have tightened since the node was pushed.
+            if gap >= limit {
                 continue;
             }
+            let node = &self.nodes[index as usize];
             if node.is_leaf() {
                 for t in node.run() {
+                    if self.bounds[t].beyond(p, reach) {
+                        continue;
+                    }
                     let d = distance_squared(p, &self.triangles[t]);
                     if d < best.0 {
                         best = (d, t);
+                        reach = d.sqrt() + slack;
+                        limit = reach * reach;
                     }
                 }
             } else {
@@ -104,12 +127,55 @@ impl Bvh {
                 let da = self.nodes[a as usize].distance_squared(p);
                 let db = self.nodes[b as usize].distance_squared(p);
                 // Visit the nearer child first: it most likely tightens the bound.
-                let (near, far) = if da <= db { (a, b) } else { (b, a) };
-                stack.push(far);
-                stack.push(near);
+                let ((near, dn), (far, df)) = if da <= db {
+                    ((a, da), (b, db))
+                } else {
+                    ((b, db), (a, da))
+                };
+                if df < limit {
+                    stack.push((far, df));
+                }
+                if dn < limit {
+                    stack.push((near, dn));
+                }
             }
         }
         best
+    }
+}
+
+/// A ball around a triangle and the plane through it: a point farther than `reach` from
+/// either is farther than `reach` from the triangle. The ball rejects triangles off to the
+/// side, the plane those seen face on.
+struct TriangleBound {
+    centre: DVec3,
+    radius: f64,
+    /// Unit normal (zero for a triangle without area) and its offset `normal · corner`.
+    normal: DVec3,
+    offset: f64,
+}
+
+impl TriangleBound {
+    fn new(t: &[DVec3; 3]) -> TriangleBound {
+        let centre = (t[0] + t[1] + t[2]) / 3.0;
+        let radius = t
+            .iter()
+            .map(|p| (*p - centre).length_squared())
+            .fold(0.0, f64::max)
+            .sqrt();
+        let normal = (t[1] - t[0]).cross(t[2] - t[0]).normalize_or_zero();
+        TriangleBound {
+            centre,
+            radius,
+            normal,
+            offset: normal.dot(t[0]),
+        }
+    }
+
+    fn beyond(&self, p: DVec3, reach: f64) -> bool {
+        let ball = reach + self.radius;
+        (self.normal.dot(p) - self.offset).abs() >= reach
+            || (p - self.centre).length_squared() >= ball * ball
     }
 }
 

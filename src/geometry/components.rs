@@ -8,6 +8,7 @@
 //! from dropping unused vertices.
 
 use super::Mesh;
+use glam::DVec3;
 use std::collections::HashMap;
 
 /// The connected components of `mesh`, ordered by their smallest triangle index, each with
@@ -16,13 +17,9 @@ pub fn pieces(mesh: &Mesh) -> Vec<Mesh> {
     let n = mesh.positions.len();
     let valid = |t: &[u32; 3]| t.iter().all(|&v| (v as usize) < n);
 
-    // Weld: each vertex starts in the set of the first vertex at its position.
-    let mut first_at: HashMap<[u64; 3], u32> = HashMap::with_capacity(n);
+    // Each vertex starts in the set of the first vertex at its position.
     let mut sets = DisjointSets::new(n);
-    for (i, p) in mesh.positions.iter().enumerate() {
-        // +0.0 and -0.0 are the same position.
-        let key = [p.x, p.y, p.z].map(|c| (c + 0.0).to_bits());
-        let first = *first_at.entry(key).or_insert(i as u32);
+    for (i, first) in welded(&mesh.positions).into_iter().enumerate() {
         sets.join(first, i as u32);
     }
     for t in mesh.triangles.iter().filter(|t| valid(t)) {
@@ -67,6 +64,19 @@ pub fn pieces(mesh: &Mesh) -> Vec<Mesh> {
         }
     }
     out
+}
+
+/// For each vertex, the first vertex at exactly the same position (+0 and −0 being equal).
+pub(super) fn welded(positions: &[DVec3]) -> Vec<u32> {
+    let mut first_at: HashMap<[u64; 3], u32> = HashMap::with_capacity(positions.len());
+    positions
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let key = [p.x, p.y, p.z].map(|c| (c + 0.0).to_bits());
+            *first_at.entry(key).or_insert(i as u32)
+        })
+        .collect()
 }
 
 /// Union–find with path halving and union by size.

@@ -7,10 +7,14 @@
 //! outside without asking the winding number, which both saves the costlier query where most
 //! samples of a domain lie and makes `range` provably conservative there. Within a block each
 //! point starts its nearest-triangle search from its predecessor's answer, which the grid
-//! order of cache fills makes a tight bound.
+//! order of cache fills makes a tight bound. And when the mesh is closed (after welding equal
+//! positions) its winding number is an integer that changes only across the surface, so a
+//! point closer to its predecessor than the predecessor is to the surface shares its sign:
+//! a grid fill asks the winding number only within about a cell of the surface.
 
 use super::Mesh;
 use super::bvh::Bvh;
+use super::components::welded;
 use super::winding::{Moments, moments, winding_number};
 use crate::failure::{Failure, Outcome};
 use crate::sample::{Aabb, BlockEval, FieldSampler};
@@ -21,6 +25,8 @@ pub struct MeshDistance {
     bvh: Bvh,
     moments: Vec<Moments>,
     bounds: Aabb,
+    /// Every edge (after welding) has a twin in the opposite direction.
+    closed: bool,
 }
 
 impl std::fmt::Debug for MeshDistance {
@@ -51,10 +57,21 @@ impl MeshDistance {
         let bvh = Bvh::new(triangles);
         let moments = moments(&bvh);
         let root = bvh.nodes[0];
+        let first = welded(&mesh.positions);
+        let closed = Mesh {
+            positions: mesh.positions.clone(),
+            triangles: mesh
+                .triangles
+                .iter()
+                .map(|t| t.map(|v| first[v as usize]))
+                .collect(),
+        }
+        .is_closed();
         Ok(MeshDistance {
             bvh,
             moments,
             bounds: Aabb::new(root.min, root.max),
+            closed,
         })
     }
 
@@ -70,11 +87,15 @@ impl MeshDistance {
     }
 }
 
-/// One thread's query state: a traversal stack and the last nearest triangle.
+/// One thread's query state: a traversal stack, the last nearest triangle, and the last point
+/// with its distance and side.
 struct Query<'a> {
     mesh: &'a MeshDistance,
     stack: Vec<u32>,
+    /// Nodes still to visit in the nearest-triangle search, with their box distances.
+    pending: Vec<(u32, f64)>,
     hint: usize,
+    last: Option<(DVec3, f64, bool)>,
     scratch: Vec<f64>,
 }
 
@@ -83,17 +104,26 @@ impl Query<'_> {
         Query {
             mesh,
             stack: Vec::with_capacity(64),
+            pending: Vec::with_capacity(64),
             hint: 0,
+            last: None,
             scratch: Vec::new(),
         }
     }
 
     fn signed_distance(&mut self, p: DVec3) -> f64 {
-        let (d2, nearest) = self.mesh.bvh.nearest(p, self.hint, &mut self.stack);
+        let (d2, nearest) = self.mesh.bvh.nearest(p, self.hint, &mut self.pending);
         self.hint = nearest;
         let distance = d2.sqrt();
-        let inside = self.mesh.bounds.contains(p)
-            && winding_number(&self.mesh.bvh, &self.mesh.moments, p, &mut self.stack) > 0.5;
+        let inside = match self.last {
+            _ if !self.mesh.bounds.contains(p) => false,
+            // The ball about the last point reaching to the surface holds no surface.
+            // (Shrunk by far more than rounding, so that the sign never depends on which
+            // point came before.)
+            Some((q, d, side)) if self.mesh.closed && (p - q).length() < d * (1.0 - 1e-6) => side,
+            _ => winding_number(&self.mesh.bvh, &self.mesh.moments, p, &mut self.stack) > 0.5,
+        };
+        self.last = Some((p, distance, inside));
         if inside { distance } else { -distance }
     }
 }

@@ -90,6 +90,9 @@ pub fn marching_cubes(levelset: &dyn FieldSampler, domain: &Domain) -> Outcome<M
     };
     let grid = Lattice::new(domain, resolution);
     let cube_layers = resolution[2] + 1;
+    // The slabs depend on the resolution alone, never on the number of threads, so neither
+    // does the order of the vertices. Each slab samples one layer that the next samples again;
+    // thicker slabs waste less, thinner ones share the work more evenly.
     let thickness = (cube_layers / 32).clamp(4, 32);
     let slabs: Vec<(usize, usize)> = (0..cube_layers)
         .step_by(thickness)

@@ -16,7 +16,7 @@ use glam::{DMat3, DVec3};
 use std::f64::consts::PI;
 
 /// A node farther than this many radii away is summed by its expansion.
-const FAR: f64 = 2.0;
+const FAR: f64 = 3.0;
 
 /// The expansion of one node's triangles.
 #[derive(Clone, Copy, Debug)]

@@ -123,8 +123,9 @@ fn hierarchical_winding_number_is_close_to_the_exact_sum() {
         }
         worst = worst.max((field.winding_number(p) - exact).abs());
     }
-    // Two expansion terms at two radii: a few hundredths at worst, far from the ½ that decides.
-    assert!(worst < 0.1, "worst winding error {worst}");
+    // Two expansion terms beyond three radii: the third-order remainder is about (1/3)³ of a
+    // node's share, some hundredths in all (0.02 measured), far from the ½ that decides.
+    assert!(worst < 0.05, "worst winding error {worst}");
 }
 
 #[test]
