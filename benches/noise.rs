@@ -1,11 +1,15 @@
 //! Noise throughput: samples per second per kind on one thread (f32 values, and values with
-//! gradients), and the time to fill a dense 256³ grid with a five-octave pyroclastic sphere
-//! of Perlin noise on two threads, the figure the design notes compare with OpenVDB AX.
+//! gradients), the time to fill a dense 256³ grid with a five-octave pyroclastic sphere
+//! of Perlin noise on two threads, the figure the design notes compare with OpenVDB AX, and
+//! the time to synthesise FFT Gaussian random fields.
 //!
 //! Run with `cargo bench --bench noise`.
 
 use felt::field::noise::{NoiseKind, NoiseOutput, eval_f32};
+use felt::grid::domain::Domain;
+use felt::grid::fft::gaussian_random_field;
 use felt::sample::BLOCK;
+use glam::DVec3;
 use rayon::prelude::*;
 use std::hint::black_box;
 use std::time::Instant;
@@ -129,9 +133,47 @@ fn main() {
         best = best.min(seconds);
         checksum = sum;
     }
+    println!();
+    println!("{:<56} {:>9}", "grid, two threads", "seconds");
     println!(
-        "256^3 pyroclastic sphere, 5 octaves of Perlin (84 M samples), 2 threads: {best:.3} s \
-         ({:.0} M samples/s; checksum {checksum:.1})",
-        (256.0f64.powi(3) * 5.0) / best / 1e6
+        "{:<56} {best:>9.3}",
+        format!(
+            "256³ pyroclastic sphere, 5 octaves Perlin ({:.0} M/s)",
+            256.0f64.powi(3) * 5.0 / best / 1e6
+        )
     );
+    for (n, divergence_free) in [(128, false), (128, true), (256, false)] {
+        let seconds = random_field(n, divergence_free);
+        let what = if divergence_free {
+            "divergence-free"
+        } else {
+            "scalar"
+        };
+        println!(
+            "{:<56} {seconds:>9.3}",
+            format!("{n}³ FFT Gaussian random field, {what}")
+        );
+    }
+    println!("(checksum {checksum:.1})");
+}
+
+/// Seconds to synthesise one random field on an `n³` grid (best of two).
+fn random_field(n: usize, divergence_free: bool) -> f64 {
+    let cell = 1.0 / n as f64;
+    let domain = Domain::with_cells(DVec3::ZERO, DVec3::ONE, DVec3::ZERO, cell, cell)
+        .expect("a domain that fits in memory");
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .expect("a thread pool");
+    let mut best = f64::INFINITY;
+    for _ in 0..2 {
+        let start = Instant::now();
+        let field = pool
+            .install(|| gaussian_random_field(&domain, 4.0 * cell, 1, divergence_free))
+            .expect("a random field");
+        best = best.min(start.elapsed().as_secs_f64());
+        black_box(field);
+    }
+    best
 }

@@ -436,7 +436,7 @@ fn simplex_lipschitz_is_certified() {
     );
 }
 
-/// About a minute on two threads in release: `cargo test --release --lib
+/// About 35 s on two threads in release: `cargo test --release --lib
 /// field::noise::bounds -- --ignored`.
 #[test]
 #[ignore]

@@ -139,8 +139,9 @@ impl BlockBase {
     }
 }
 
-/// `floor` of a lane value that fits an i32 (block offsets always do; anything else saturates
-/// rather than failing). Written with a truncating convert so it vectorises on every x86 level.
+/// `floor` of a lane value that fits an i32 (block offsets always do; anything else, NaN and
+/// infinities included, gives some cell but never fails: the convert saturates and the
+/// correction wraps). Written with a truncating convert so it vectorises on every x86 level.
 #[inline(always)]
 fn floor_i32(t: f32) -> i32 {
     let truncated = t as i32;

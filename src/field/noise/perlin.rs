@@ -105,16 +105,26 @@ pub(crate) fn sample<R: Real, const G: bool, const H: bool>(p: Located<R>, key: 
     let dz = [fz, fz - R::ONE];
 
     // Corner ramps a = g·(p − corner) and, for derivatives, the gradients g themselves.
+    // Written out corner by corner: a loop here would stay a loop inside the block loop,
+    // and LLVM vectorises only innermost loops.
     let mut ramp = [R::ZERO; 8];
     let mut grads = [[R::ZERO; 8]; 3];
-    for c in 0..8 {
+    let mut visit = |c: usize| {
         let (i, j, k) = (c & 1, (c >> 1) & 1, c >> 2);
         let g: [R; 3] = edge_gradient(corner(xs[i], ys[j], zs[k], key));
         ramp[c] = g[0] * dx[i] + g[1] * dy[j] + g[2] * dz[k];
-        for axis in 0..3 {
-            grads[axis][c] = g[axis];
-        }
-    }
+        grads[0][c] = g[0];
+        grads[1][c] = g[1];
+        grads[2][c] = g[2];
+    };
+    visit(0);
+    visit(1);
+    visit(2);
+    visit(3);
+    visit(4);
+    visit(5);
+    visit(6);
+    visit(7);
 
     let (u, du, ddu) = fade(fx);
     let (v, dv, ddv) = fade(fy);

@@ -45,55 +45,15 @@ pub(crate) fn sample<R: Real, const G: bool, const H: bool>(p: Located<R>, key: 
     let [x0, y0, z0] = axis_terms(p.cell);
     let s = (tx + ty + tz) * R::lit(UNSKEW);
     let d0 = [tx - s, ty - s, tz - s];
-    let primes = [PRIME_X, PRIME_Y, PRIME_Z];
     let base = [x0, y0, z0];
 
+    // The four corners are four calls, not a loop: a loop here would stay a loop inside the
+    // block loop, and LLVM vectorises only innermost loops.
     let mut out = Sample::zero();
-    for c in 0..4 {
-        let step = |axis: usize| match c {
-            0 => false,
-            1 => first[axis],
-            2 => second[axis],
-            _ => true,
-        };
-        let mut term = [0u32; 3];
-        let mut d = [R::ZERO; 3];
-        for axis in 0..3 {
-            let o = step(axis);
-            term[axis] = base[axis].wrapping_add(if o { primes[axis] } else { 0 });
-            d[axis] = d0[axis] - select(o, R::ONE, R::ZERO) + R::lit(UNSKEW * c as f64);
-        }
-        let g: [R; 3] = edge_gradient(corner(term[0], term[1], term[2], key));
-        let reach = R::lit(RADIUS2) - (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-        let q = select(reach > R::ZERO, reach, R::ZERO);
-        let q2 = q * q;
-        let q4 = q2 * q2;
-        let ramp = g[0] * d[0] + g[1] * d[1] + g[2] * d[2];
-        out.value = out.value + q4 * ramp;
-        if G || H {
-            // ∇(q⁴ a) = −8q³a·d + q⁴·g, since ∇q = −2d and ∇a = g.
-            let q3 = q2 * q;
-            let radial = R::lit(-8.0) * q3 * ramp;
-            for axis in 0..3 {
-                out.gradient[axis] = out.gradient[axis] + radial * d[axis] + q4 * g[axis];
-            }
-            if H {
-                // ∂²/∂i∂j = 48q²a·dᵢdⱼ − 8q³(gᵢdⱼ + gⱼdᵢ) − 8q³a·δᵢⱼ.
-                let curved = R::lit(48.0) * q2 * ramp;
-                let cross = R::lit(-8.0) * q3;
-                for (slot, (i, j)) in [(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)]
-                    .into_iter()
-                    .enumerate()
-                {
-                    let mut h = curved * d[i] * d[j] + cross * (g[i] * d[j] + g[j] * d[i]);
-                    if i == j {
-                        h = h + radial;
-                    }
-                    out.hessian[slot] = out.hessian[slot] + h;
-                }
-            }
-        }
-    }
+    add_corner::<R, G, H>(&mut out, base, d0, [false; 3], 0.0, key);
+    add_corner::<R, G, H>(&mut out, base, d0, first, 1.0, key);
+    add_corner::<R, G, H>(&mut out, base, d0, second, 2.0, key);
+    add_corner::<R, G, H>(&mut out, base, d0, [true; 3], 3.0, key);
     let scale = R::lit(SCALE);
     out.value = out.value * scale;
     for g in &mut out.gradient {
@@ -103,4 +63,53 @@ pub(crate) fn sample<R: Real, const G: bool, const H: bool>(p: Located<R>, key: 
         *h = *h * scale;
     }
     out
+}
+
+/// Adds the kernel of one corner of the tetrahedron: the corner `c` steps (0 to 3) from the
+/// cell's origin, along the axes marked in `step`.
+#[inline(always)]
+fn add_corner<R: Real, const G: bool, const H: bool>(
+    out: &mut Sample<R>,
+    base: [u32; 3],
+    d0: [R; 3],
+    step: [bool; 3],
+    c: f64,
+    key: u32,
+) {
+    let primes = [PRIME_X, PRIME_Y, PRIME_Z];
+    let term = [0, 1, 2].map(|a| base[a].wrapping_add(if step[a] { primes[a] } else { 0 }));
+    let d = [0, 1, 2].map(|a| d0[a] - select(step[a], R::ONE, R::ZERO) + R::lit(UNSKEW * c));
+    let g: [R; 3] = edge_gradient(corner(term[0], term[1], term[2], key));
+    let reach = R::lit(RADIUS2) - (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    let q = select(reach > R::ZERO, reach, R::ZERO);
+    let q2 = q * q;
+    let q4 = q2 * q2;
+    let ramp = g[0] * d[0] + g[1] * d[1] + g[2] * d[2];
+    out.value = out.value + q4 * ramp;
+    if !(G || H) {
+        return;
+    }
+    // ∇(q⁴ a) = −8q³a·d + q⁴·g, since ∇q = −2d and ∇a = g.
+    let q3 = q2 * q;
+    let radial = R::lit(-8.0) * q3 * ramp;
+    let [gx, gy, gz] = &mut out.gradient;
+    *gx = *gx + radial * d[0] + q4 * g[0];
+    *gy = *gy + radial * d[1] + q4 * g[1];
+    *gz = *gz + radial * d[2] + q4 * g[2];
+    if H {
+        // ∂²/∂i∂j = 48q²a·dᵢdⱼ − 8q³(gᵢdⱼ + gⱼdᵢ) − 8q³a·δᵢⱼ.
+        let curved = R::lit(48.0) * q2 * ramp;
+        let cross = R::lit(-8.0) * q3;
+        let entry = |i: usize, j: usize| {
+            let h = curved * d[i] * d[j] + cross * (g[i] * d[j] + g[j] * d[i]);
+            if i == j { h + radial } else { h }
+        };
+        let [xx, yy, zz, xy, xz, yz] = &mut out.hessian;
+        *xx = *xx + entry(0, 0);
+        *yy = *yy + entry(1, 1);
+        *zz = *zz + entry(2, 2);
+        *xy = *xy + entry(0, 1);
+        *xz = *xz + entry(0, 2);
+        *yz = *yz + entry(1, 2);
+    }
 }

@@ -32,26 +32,37 @@ pub(crate) fn sample<R: Real, const G: bool, const H: bool>(p: Located<R>, key: 
     // vector is what makes the cap and its zero gradient fall out of the search.
     let mut best = R::ONE;
     let mut to_p = [R::ZERO; 3];
-    for (k, &z) in zs.iter().enumerate() {
-        for (j, &y) in ys.iter().enumerate() {
-            for (i, &x) in xs.iter().enumerate() {
-                let h = corner(x, y, z, key);
-                let jitter =
-                    |shift: u32| R::from_i32(((h >> shift) & JITTER_MASK) as i32) * unit + centre;
-                let v = [
-                    p.frac[0] - (R::from_i32(i as i32 - 1) + jitter(0)),
-                    p.frac[1] - (R::from_i32(j as i32 - 1) + jitter(JITTER_BITS)),
-                    p.frac[2] - (R::from_i32(k as i32 - 1) + jitter(2 * JITTER_BITS)),
-                ];
-                let d2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
-                let closer = d2 < best;
-                best = select(closer, d2, best);
-                for axis in 0..3 {
-                    to_p[axis] = select(closer, v[axis], to_p[axis]);
-                }
-            }
-        }
+    let mut visit = |i: usize, j: usize, k: usize| {
+        let h = corner(xs[i], ys[j], zs[k], key);
+        let jitter = |shift: u32| R::from_i32(((h >> shift) & JITTER_MASK) as i32) * unit + centre;
+        let v = [
+            p.frac[0] - (R::from_i32(i as i32 - 1) + jitter(0)),
+            p.frac[1] - (R::from_i32(j as i32 - 1) + jitter(JITTER_BITS)),
+            p.frac[2] - (R::from_i32(k as i32 - 1) + jitter(2 * JITTER_BITS)),
+        ];
+        let d2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+        let closer = d2 < best;
+        best = select(closer, d2, best);
+        to_p = [0, 1, 2].map(|axis| select(closer, v[axis], to_p[axis]));
+    };
+    // The 27 cells written out: a loop here would stay a loop inside the block loop, and
+    // LLVM vectorises only innermost loops.
+    macro_rules! row {
+        ($j:literal, $k:literal) => {
+            visit(0, $j, $k);
+            visit(1, $j, $k);
+            visit(2, $j, $k);
+        };
     }
+    row!(0, 0);
+    row!(1, 0);
+    row!(2, 0);
+    row!(0, 1);
+    row!(1, 1);
+    row!(2, 1);
+    row!(0, 2);
+    row!(1, 2);
+    row!(2, 2);
 
     let mut out = Sample::zero();
     let distance = best.sqrt();
