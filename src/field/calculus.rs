@@ -196,42 +196,23 @@ fn kernel_rule(
             }
             // Third and higher derivatives: central differences of the exact Hessian, a
             // thousandth of a lattice cell apart (relative error about 1e-6).
-            let plus: Vec<NodeRef> = (0..3)
-                .map(|k| shifted_kernel(kernel, args, k, NOISE_STEP))
-                .collect();
-            let minus: Vec<NodeRef> = (0..3)
-                .map(|k| shifted_kernel(kernel, args, k, -NOISE_STEP))
-                .collect();
+            let central = Central::new(kernel, args, NOISE_STEP);
             for o in 4..10 {
-                outs.push(chain(&|k| {
-                    node::mul(
-                        node::constant(0.5 / NOISE_STEP),
-                        node::sub(node::output_of(&plus[k], o), node::output_of(&minus[k], o)),
-                    )
-                }));
+                outs.push(chain(&|k| central.partial(o, k)));
             }
             outs
         }
+        // A read that asks for central differences, and the second derivative of a read
+        // (the interpolants have it only piecewise): differences at one cell size.
         Kernel::GridValue {
             grid,
             derivative: GridDerivative::Central,
             ..
-        } => {
-            // Central differences of the read itself at one cell size.
-            let h = grid.cell_size().min_element();
-            let plus: Vec<NodeRef> = (0..3).map(|k| shifted_kernel(kernel, args, k, h)).collect();
-            let minus: Vec<NodeRef> = (0..3)
-                .map(|k| shifted_kernel(kernel, args, k, -h))
-                .collect();
+        }
+        | Kernel::GridGradient { grid, .. } => {
+            let central = Central::new(kernel, args, grid.cell_size().min_element());
             (0..kernel.outputs())
-                .map(|o| {
-                    chain(&|k| {
-                        node::mul(
-                            node::constant(0.5 / h),
-                            node::sub(node::output_of(&plus[k], o), node::output_of(&minus[k], o)),
-                        )
-                    })
-                })
+                .map(|o| chain(&|k| central.partial(o, k)))
                 .collect()
         }
         Kernel::GridValue { grid, interp, .. } => {
@@ -244,24 +225,6 @@ fn kernel_rule(
             ));
             (0..grid.width())
                 .map(|c| chain(&|k| node::output_of(&gradient, c * 3 + k)))
-                .collect()
-        }
-        Kernel::GridGradient { grid, .. } => {
-            // Central differences of the interpolant's gradient at one cell size.
-            let h = grid.cell_size().min_element();
-            let plus: Vec<NodeRef> = (0..3).map(|k| shifted_kernel(kernel, args, k, h)).collect();
-            let minus: Vec<NodeRef> = (0..3)
-                .map(|k| shifted_kernel(kernel, args, k, -h))
-                .collect();
-            (0..kernel.outputs())
-                .map(|o| {
-                    chain(&|k| {
-                        node::mul(
-                            node::constant(0.5 / h),
-                            node::sub(node::output_of(&plus[k], o), node::output_of(&minus[k], o)),
-                        )
-                    })
-                })
                 .collect()
         }
         Kernel::PseudoInverse => {
@@ -287,6 +250,36 @@ fn kernel_rule(
                 .collect()
         }
     })
+}
+
+/// A kernel evaluated at ±h along each of its three position arguments.
+struct Central {
+    plus: Vec<NodeRef>,
+    minus: Vec<NodeRef>,
+    h: f64,
+}
+
+impl Central {
+    fn new(kernel: &Kernel, args: &[NodeRef], h: f64) -> Central {
+        Central {
+            plus: (0..3).map(|k| shifted_kernel(kernel, args, k, h)).collect(),
+            minus: (0..3)
+                .map(|k| shifted_kernel(kernel, args, k, -h))
+                .collect(),
+            h,
+        }
+    }
+
+    /// d(output) / d(argument `arg`) by the central difference.
+    fn partial(&self, output: usize, arg: usize) -> NodeRef {
+        node::mul(
+            node::constant(0.5 / self.h),
+            node::sub(
+                node::output_of(&self.plus[arg], output),
+                node::output_of(&self.minus[arg], output),
+            ),
+        )
+    }
 }
 
 /// Lattice units between the samples of a noise Hessian's central difference.
