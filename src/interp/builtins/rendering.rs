@@ -20,12 +20,20 @@ use std::path::Path;
 use std::rc::Rc;
 use std::sync::Arc;
 
-/// The parameters of `render` after `path` and `density`, in order (shared by both forms).
-const RENDER_OPTIONS: &str = "vectorfield color?, vectorfield emission?, camera camera?, \
-    light[] lights?, KAPPA kappa?, float step?, int width?, int height?, int spp?, int seed?, \
-    domain bounds?, float threshold?, float phase?, vector phase2?, scalarfield holdout?, \
-    vector ambient?, int multiscatter?, bool adaptive?, string[] aovs?, string shadows?, \
-    float powder?, float shadowcell?";
+/// The form of `render` with `kappa` of the given type (a float, or a vector per channel).
+macro_rules! render_form {
+    ($kappa:literal) => {
+        concat!(
+            "render(string path, scalarfield density, vectorfield color?, vectorfield emission?, ",
+            "camera camera?, light[] lights?, ",
+            $kappa,
+            " kappa?, float step?, int width?, int height?, int spp?, int seed?, ",
+            "domain bounds?, float threshold?, float phase?, vector phase2?, scalarfield holdout?, ",
+            "vector ambient?, int multiscatter?, bool adaptive?, string[] aovs?, string shadows?, ",
+            "float powder?, float shadowcell?) -> void"
+        )
+    };
+}
 
 const COLOR: usize = 2;
 const EMISSION: usize = 3;
@@ -92,22 +100,9 @@ pub fn register(r: &mut Registry) {
             )?)))
         },
     );
-    let scalar_kappa = format!(
-        "render(string path, scalarfield density, {}) -> void",
-        RENDER_OPTIONS.replace("KAPPA", "float")
-    );
-    let vector_kappa = format!(
-        "render(string path, scalarfield density, {}) -> void",
-        RENDER_OPTIONS.replace("KAPPA", "vector")
-    );
-    // The registry keeps forms for the life of the process.
-    let forms: &'static [&'static str] = Box::leak(Box::new([
-        &*Box::leak(scalar_kappa.into_boxed_str()),
-        &*Box::leak(vector_kappa.into_boxed_str()),
-    ]));
     r.add(
         "rendering",
-        forms,
+        &[render_form!("float"), render_form!("vector")],
         "raymarches density (lit by lights, coloured by color, glowing with emission) into an \
          OpenEXR image, or a PNG preview when path ends in .png",
         run_render,

@@ -1,0 +1,298 @@
+//! Expression typing: what each expression's type is, by the operator table of `types`, the
+//! scopes of the checker, and the builtin registry for calls. A bad expression gets the type
+//! `Error`, which fits anywhere, so one mistake is reported once.
+
+use super::Checker;
+use super::types::{self, Type, binary_result, unary_result, unify};
+use crate::diagnostic::{Diagnostic, Stage};
+use crate::interp::registry::{self, Resolution};
+use crate::interp::suggest;
+use crate::syntax::ast::*;
+use crate::syntax::span::Span;
+
+impl Checker<'_> {
+    pub(super) fn expr(&mut self, e: &Expr) -> Type {
+        match &e.kind {
+            ExprKind::Int(_) => Type::Int,
+            ExprKind::Float(_) => Type::Float,
+            ExprKind::Bool(_) => Type::Bool,
+            ExprKind::Str(_) => Type::Str,
+            ExprKind::Var(name) => match self.lookup(&name.name) {
+                Some(info) => info.ty.clone(),
+                None => {
+                    let help = self.name_hint(&name.name).or_else(|| {
+                        (self.env.funcs.contains_key(&name.name)
+                            || registry::registry().get(&name.name).is_some())
+                        .then(|| {
+                            format!(
+                                "`{}` is a function; call it with `{}(...)`",
+                                name.name, name.name
+                            )
+                        })
+                    });
+                    let d = self.error(
+                        Stage::Name,
+                        name.span,
+                        format!("unknown variable `{}`", name.name),
+                    );
+                    d.label = String::from("not declared");
+                    d.help = help;
+                    Type::Error
+                }
+            },
+            ExprKind::Tuple(items) => self.tuple(e.span, items),
+            ExprKind::Array(items) => {
+                let mut elem: Option<Type> = None;
+                for item in items {
+                    let t = self.expr(item);
+                    elem = match elem {
+                        None => Some(t),
+                        Some(prev) => match unify(&prev, &t) {
+                            Some(u) => Some(u),
+                            None => {
+                                self.error(
+                                    Stage::Type,
+                                    item.span,
+                                    format!(
+                                        "array elements must share a type: found {prev} and {t}"
+                                    ),
+                                );
+                                Some(Type::Error)
+                            }
+                        },
+                    };
+                }
+                match elem {
+                    None => Type::EmptyArray,
+                    Some(Type::Void) => {
+                        self.error(Stage::Type, e.span, "an array cannot hold void values");
+                        Type::Error
+                    }
+                    Some(t) => Type::array_of(t),
+                }
+            }
+            ExprKind::Unary(op, operand) => {
+                let t = self.expr(operand);
+                unary_result(*op, &t).unwrap_or_else(|message| {
+                    self.error(Stage::Type, e.span, message);
+                    Type::Error
+                })
+            }
+            ExprKind::Binary(op, l, r) => {
+                let lt = self.expr(l);
+                let rt = self.expr(r);
+                binary_result(*op, &lt, &rt).unwrap_or_else(|message| {
+                    let d = self.error(Stage::Type, e.span, message);
+                    if lt.is_field() || rt.is_field() {
+                        if matches!(op, BinaryOp::Lt | BinaryOp::Le | BinaryOp::Gt | BinaryOp::Ge | BinaryOp::Eq | BinaryOp::Ne) {
+                            d.help = Some(String::from("use mask(f) (1 where f >= 0) or select(c, a, b) for pointwise choices"));
+                        }
+                    } else if *op == BinaryOp::Add && (lt == Type::Str || rt == Type::Str) {
+                        d.help = Some(String::from("convert with str(x) before joining strings"));
+                    }
+                    Type::Error
+                })
+            }
+            ExprKind::Call { callee, args } => self.call(e.span, callee, args),
+            ExprKind::Index(base, index) => {
+                let bt = self.expr(base);
+                self.index_type(index);
+                match bt {
+                    Type::Array(elem) => *elem,
+                    Type::Vector => Type::Float,
+                    Type::Matrix => Type::Vector,
+                    Type::Error => Type::Error,
+                    Type::EmptyArray => {
+                        self.error(Stage::Type, e.span, "indexing an empty array literal");
+                        Type::Error
+                    }
+                    other => {
+                        self.error(
+                            Stage::Type,
+                            base.span,
+                            format!("a {other} cannot be indexed"),
+                        );
+                        Type::Error
+                    }
+                }
+            }
+            ExprKind::Member(base, member) => {
+                let bt = self.expr(base);
+                let is_component = matches!(member.name.as_str(), "x" | "y" | "z");
+                match bt {
+                    Type::Vector if is_component => Type::Float,
+                    Type::VectorField if is_component => Type::ScalarField,
+                    Type::Error => Type::Error,
+                    Type::Vector | Type::VectorField => {
+                        self.error(
+                            Stage::Type,
+                            member.span,
+                            format!("`{}` is not a component of a {bt}", member.name),
+                        )
+                        .help = Some(String::from("the components are .x, .y and .z"));
+                        Type::Error
+                    }
+                    other => {
+                        self.error(
+                            Stage::Type,
+                            member.span,
+                            format!("a {other} has no component `.{}`", member.name),
+                        );
+                        Type::Error
+                    }
+                }
+            }
+        }
+    }
+
+    pub(super) fn tuple(&mut self, span: Span, items: &[Expr]) -> Type {
+        let types: Vec<Type> = items.iter().map(|i| self.expr(i)).collect();
+        if types.iter().any(|t| t.is_error()) {
+            return Type::Error;
+        }
+        if types.len() != 3 {
+            self.error(
+                Stage::Type,
+                span,
+                format!("a vector literal has 3 components, found {}", types.len()),
+            );
+            return Type::Error;
+        }
+        let shapes: Vec<_> = types.iter().map(|t| t.shape()).collect();
+        let any_field = types.iter().any(|t| t.is_field());
+        if shapes
+            .iter()
+            .all(|s| matches!(s, Some((types::Shape::Scalar, _))))
+        {
+            return if any_field {
+                Type::VectorField
+            } else {
+                Type::Vector
+            };
+        }
+        if shapes
+            .iter()
+            .all(|s| matches!(s, Some((types::Shape::Vector, _))))
+        {
+            return if any_field {
+                Type::MatrixField
+            } else {
+                Type::Matrix
+            };
+        }
+        let shown: Vec<String> = types.iter().map(|t| t.to_string()).collect();
+        self.error(
+            Stage::Type,
+            span,
+            format!("a vector literal needs three numbers and a matrix literal three vectors, found ({})", shown.join(", ")),
+        );
+        Type::Error
+    }
+
+    pub(super) fn call(&mut self, span: Span, callee: &Ident, args: &[Arg]) -> Type {
+        if let Some(sig) = self.env.funcs.get(&callee.name).cloned() {
+            let types: Vec<Type> = args.iter().map(|a| self.expr(&a.value)).collect();
+            if let Some(a) = args.iter().find(|a| a.name.is_some()) {
+                self.error(
+                    Stage::Type,
+                    a.span,
+                    format!(
+                        "`{}` is a script function; it takes positional arguments only",
+                        callee.name
+                    ),
+                );
+                return sig.ret;
+            }
+            if types.len() != sig.params.len() {
+                let d = self.error(
+                    Stage::Type,
+                    span,
+                    format!(
+                        "`{}` takes {} argument{}, found {}",
+                        callee.name,
+                        sig.params.len(),
+                        if sig.params.len() == 1 { "" } else { "s" },
+                        types.len()
+                    ),
+                );
+                d.related.push(
+                    Diagnostic::error(Stage::Type, sig.span, "defined here")
+                        .with_label("definition"),
+                );
+                return sig.ret;
+            }
+            for ((arg, found), expected) in args.iter().zip(&types).zip(&sig.params) {
+                self.expect(
+                    arg.value.span,
+                    found,
+                    expected,
+                    &format!("wrong argument to `{}`", callee.name),
+                );
+            }
+            return sig.ret;
+        }
+        if registry::registry().get(&callee.name).is_some() {
+            return self.builtin_call(&callee.name, callee.span, span, args);
+        }
+        for a in args {
+            self.expr(&a.value);
+        }
+        let mut names: Vec<String> = self.env.funcs.keys().cloned().collect();
+        names.extend(registry::registry().names().map(String::from));
+        let help = suggest::closest(&callee.name, names.iter().map(|s| s.as_str()))
+            .map(|s| format!("did you mean `{s}`?"));
+        let is_var = self.lookup(&callee.name).is_some();
+        let d = self.error(
+            Stage::Name,
+            callee.span,
+            format!("unknown function `{}`", callee.name),
+        );
+        d.label = String::from("not defined");
+        d.help = if is_var {
+            Some(format!("`{}` is a variable, not a function", callee.name))
+        } else {
+            help
+        };
+        Type::Error
+    }
+
+    pub(super) fn builtin_call(
+        &mut self,
+        name: &str,
+        name_span: Span,
+        span: Span,
+        args: &[Arg],
+    ) -> Type {
+        let builtin = registry::registry()
+            .get(name)
+            .expect("checked by the caller");
+        let types: Vec<Type> = args.iter().map(|a| self.expr(&a.value)).collect();
+        if types.iter().any(|t| t.is_error()) {
+            return builtin
+                .signatures
+                .first()
+                .map(|s| s.ret.clone())
+                .unwrap_or(Type::Error);
+        }
+        let names: Vec<Option<String>> = args
+            .iter()
+            .map(|a| a.name.as_ref().map(|n| n.name.clone()))
+            .collect();
+        match registry::resolve(builtin, &types, &names) {
+            Resolution::Match { form, .. } => builtin.signatures[form].ret.clone(),
+            Resolution::Mismatch { message, arg, help } => {
+                let at = arg.map(|i| args[i].span).unwrap_or(span);
+                let d = self.error(Stage::Type, at, message);
+                d.help = help.or_else(|| {
+                    Some(format!(
+                        "`{}`: {}",
+                        builtin.forms().join(" | "),
+                        builtin.doc
+                    ))
+                });
+                let _ = name_span;
+                Type::Error
+            }
+        }
+    }
+}
