@@ -158,10 +158,10 @@ impl Session {
         })?;
         let unit = self.parse_text(&path.display().to_string(), &text)?;
         stack.push(canonical.clone());
-        let base = canonical
-            .parent()
-            .map(Path::to_path_buf)
-            .unwrap_or_default();
+        // Imports resolve against the importing file's path as the user named it (not its
+        // canonical form), so diagnostics in imported files show paths the author recognises
+        // rather than absolute ones.
+        let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
         for item in &unit.program.items {
             if let Item::Import(import) = item {
                 self.load_recursive(&base.join(&import.path), Some(import.span), stack, units)?;
