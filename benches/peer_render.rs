@@ -457,7 +457,7 @@ fn main() {
         CELLS * 8
     );
     println!(
-        "felt's shadow grid cell is max(2 step, box/192) (about 1.33 voxels at the finest), so the coarse steps also have coarser shadow grids."
+        "felt's shadow grid cell is max(step, box/256) (1 voxel at the finest), so the coarse steps also have coarser shadow grids."
     );
     println!(
         "| step | voxels | render s | RMSE RGBA vs reference | RMSE alpha vs reference | RGB RMSE vs vdb_render lighting reference |"

@@ -16,8 +16,10 @@ use glam::DVec3;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Shadows {
     /// Precomputed once per light into a grid over the marched box and read trilinearly.
-    /// `cell_size: None` takes twice the step, with at most 192 cells along the box's longest
+    /// `cell_size: None` takes the camera step, with at most 256 cells along the box's longest
     /// side (96 where the light is marched from every cell, as for a point light inside the box).
+    /// Trilinear reads of a coarser column grid overestimate the column just inside a lit
+    /// surface, where it is convex, so coarse cells darken dense media.
     Cache {
         cell_size: Option<f64>,
         method: TransmissivityMethod,

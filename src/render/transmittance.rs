@@ -75,6 +75,18 @@ impl LightGrid {
     /// Trilinear interpolation of the column at world point `p`; outside the grid the nearest
     /// edge values are used.
     pub fn column_at(&self, p: DVec3) -> f64 {
+        self.column_and_spread_at(p).0
+    }
+
+    /// The longest cell side: how far apart the columns a read blends may be.
+    pub fn cell_extent(&self) -> f64 {
+        self.domain.cell.max_element()
+    }
+
+    /// The trilinear column at `p`, with the least and greatest of the eight columns it blends.
+    /// A wide spread means the column changes a lot within a cell, where a linear blend of it is
+    /// a poor stand-in for the exponential it feeds.
+    pub fn column_and_spread_at(&self, p: DVec3) -> (f64, f64, f64) {
         let idx = self.to_index * (p - self.domain.origin) - DVec3::splat(0.5);
         let [nx, ny, nz] = self.resolution;
         let mut base = [0usize; 3];
@@ -93,18 +105,27 @@ impl LightGrid {
         ];
         let at = base[0] + nx * (base[1] + ny * base[2]);
         let c = &self.column;
-        let lerp = |a: f32, b: f32, t: f64| a as f64 + (b as f64 - a as f64) * t;
-        let x00 = lerp(c[at], c[at + step[0]], frac[0]);
-        let x10 = lerp(c[at + step[1]], c[at + step[1] + step[0]], frac[0]);
-        let x01 = lerp(c[at + step[2]], c[at + step[2] + step[0]], frac[0]);
-        let x11 = lerp(
-            c[at + step[2] + step[1]],
-            c[at + step[2] + step[1] + step[0]],
-            frac[0],
-        );
-        let y0 = x00 + (x10 - x00) * frac[1];
-        let y1 = x01 + (x11 - x01) * frac[1];
-        y0 + (y1 - y0) * frac[2]
+        let corners = [
+            at,
+            at + step[0],
+            at + step[1],
+            at + step[1] + step[0],
+            at + step[2],
+            at + step[2] + step[0],
+            at + step[2] + step[1],
+            at + step[2] + step[1] + step[0],
+        ]
+        .map(|i| c[i] as f64);
+        let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;
+        let x00 = lerp(corners[0], corners[1], frac[0]);
+        let x10 = lerp(corners[2], corners[3], frac[0]);
+        let x01 = lerp(corners[4], corners[5], frac[0]);
+        let x11 = lerp(corners[6], corners[7], frac[0]);
+        let y0 = lerp(x00, x10, frac[1]);
+        let y1 = lerp(x01, x11, frac[1]);
+        let lo = corners.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = corners.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        (lerp(y0, y1, frac[2]), lo, hi)
     }
 }
 
@@ -423,6 +444,10 @@ pub struct ColumnScratch {
     segment: Vec<f64>,
     values: Vec<f32>,
     columns: Vec<f64>,
+    /// Near-field corrections of cached columns: the sample's index, then the column beyond
+    /// the marched segment.
+    pub near: Vec<(usize, f64)>,
+    pub near_columns: Vec<f64>,
 }
 
 /// `∫ρ ds` along each ray in `scratch.rays` into `out`, by the midpoint rule with steps of
