@@ -130,29 +130,25 @@ struct ProgramSampler {
 
 struct ProgramEval<'a> {
     evaluator: Evaluator<'a>,
-    width: usize,
 }
 
 impl BlockEval for ProgramEval<'_> {
     fn eval_f32(&mut self, xs: &[f64], ys: &[f64], zs: &[f64], out: &mut [f32]) {
         let n = xs.len();
-        self.evaluator.run(xs, ys, zs, Precision::Single);
-        for c in 0..self.width {
-            for (o, v) in out[c * n..(c + 1) * n]
-                .iter_mut()
-                .zip(self.evaluator.output(c, n))
-            {
-                *o = *v as f32;
-            }
-        }
+        self.evaluator
+            .run_emitting(xs, ys, zs, Precision::Single, |c, values| {
+                for (o, v) in out[c * n..(c + 1) * n].iter_mut().zip(values) {
+                    *o = *v as f32;
+                }
+            });
     }
 
     fn eval_f64(&mut self, xs: &[f64], ys: &[f64], zs: &[f64], out: &mut [f64]) {
         let n = xs.len();
-        self.evaluator.run(xs, ys, zs, Precision::Double);
-        for c in 0..self.width {
-            out[c * n..(c + 1) * n].copy_from_slice(self.evaluator.output(c, n));
-        }
+        self.evaluator
+            .run_emitting(xs, ys, zs, Precision::Double, |c, values| {
+                out[c * n..(c + 1) * n].copy_from_slice(values);
+            });
     }
 }
 
@@ -164,7 +160,6 @@ impl FieldSampler for ProgramSampler {
     fn evaluator(&self) -> Box<dyn BlockEval + '_> {
         Box::new(ProgramEval {
             evaluator: Evaluator::new(&self.program),
-            width: self.program.outputs.len(),
         })
     }
 

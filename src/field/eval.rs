@@ -57,6 +57,21 @@ impl<'p> Evaluator<'p> {
 
     /// Runs the program on `xs.len() <= BLOCK` points; results stay in the output registers.
     pub fn run(&mut self, xs: &[f64], ys: &[f64], zs: &[f64], precision: Precision) {
+        self.run_emitting(xs, ys, zs, precision, |_, _| {});
+    }
+
+    /// Runs the program and hands each output component to `emit` (component, lanes) as soon
+    /// as its value is final. Storing results while the rest of the tape still computes
+    /// overlaps the stores with arithmetic; a copy after the whole tape would add its memory
+    /// traffic to the time instead.
+    pub fn run_emitting(
+        &mut self,
+        xs: &[f64],
+        ys: &[f64],
+        zs: &[f64],
+        precision: Precision,
+        mut emit: impl FnMut(usize, &[f64]),
+    ) {
         let n = xs.len().min(ys.len()).min(zs.len()).min(BLOCK);
         self.regs[..n].copy_from_slice(&xs[..n]);
         self.regs[BLOCK..BLOCK + n].copy_from_slice(&ys[..n]);
@@ -65,11 +80,11 @@ impl<'p> Evaluator<'p> {
         {
             if avx2_available() {
                 // SAFETY: the processor supports AVX2 (checked above).
-                unsafe { self.run_avx2(n, precision) };
+                unsafe { self.run_avx2(n, precision, &mut emit) };
                 return;
             }
         }
-        self.run_tape(n, precision);
+        self.run_tape(n, precision, &mut emit);
     }
 
     /// Component `c` of the result for the last run, `n` lanes.
@@ -80,14 +95,39 @@ impl<'p> Evaluator<'p> {
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn run_avx2(&mut self, n: usize, precision: Precision) {
-        self.run_tape(n, precision)
+    unsafe fn run_avx2(
+        &mut self,
+        n: usize,
+        precision: Precision,
+        emit: &mut impl FnMut(usize, &[f64]),
+    ) {
+        self.run_tape(n, precision, emit)
+    }
+
+    /// Hands every output whose value became final after instruction `k` to `emit`.
+    #[inline(always)]
+    fn emit_after(
+        &self,
+        k: usize,
+        next: &mut usize,
+        n: usize,
+        emit: &mut impl FnMut(usize, &[f64]),
+    ) {
+        let emits = &self.program.emits;
+        while let Some(&(at, c)) = emits.get(*next) {
+            if at != k {
+                break;
+            }
+            emit(c, self.output(c, n));
+            *next += 1;
+        }
     }
 
     #[inline(always)]
-    fn run_tape(&mut self, n: usize, precision: Precision) {
+    fn run_tape(&mut self, n: usize, precision: Precision, emit: &mut impl FnMut(usize, &[f64])) {
         let program = self.program;
-        for instr in &program.instrs {
+        let mut next = 0;
+        for (step, instr) in program.instrs.iter().enumerate() {
             match instr {
                 Instr::Unary { f, dst, a } => unary(&mut self.regs, *f, *dst, *a, n),
                 Instr::Binary { op, dst, a, b } => binary(&mut self.regs, *op, *dst, *a, *b, n),
@@ -139,7 +179,9 @@ impl<'p> Evaluator<'p> {
                     }
                 }
             }
+            self.emit_after(step, &mut next, n, emit);
         }
+        self.emit_after(program.instrs.len(), &mut next, n, emit);
     }
 
     fn noise(

@@ -66,6 +66,11 @@ pub struct Program {
     pub registers: usize,
     pub constants: Vec<(Reg, f64)>,
     pub outputs: Vec<Reg>,
+    /// `(instruction, output)`: output components in the order their values become final,
+    /// by the index of the instruction after which they are; `instrs.len()` for outputs that
+    /// no instruction writes (coordinates and constants). Lets results be stored while later
+    /// instructions still compute, instead of in one copy after the whole tape.
+    pub emits: Vec<(usize, usize)>,
     /// The widest grid read (components × 3 for gradients), for scratch space.
     pub grid_scratch: usize,
     /// Number of graph nodes compiled (for summaries).
@@ -217,14 +222,50 @@ impl Program {
                 }
             }
         }
-        let outputs = roots.iter().map(|r| reg_of[&r.id]).collect();
+        let outputs: Vec<Reg> = roots.iter().map(|r| reg_of[&r.id]).collect();
+        let emits = emit_schedule(&instrs, &outputs);
         Program {
             instrs,
             registers,
             constants,
             outputs,
+            emits,
             grid_scratch,
             nodes: order.len(),
         }
     }
+}
+
+impl Instr {
+    /// The registers this instruction writes.
+    fn writes(&self) -> Vec<Reg> {
+        match self {
+            Instr::Unary { dst, .. } | Instr::Binary { dst, .. } | Instr::Select { dst, .. } => {
+                vec![*dst]
+            }
+            Instr::Noise { outs, .. } => outs.to_vec(),
+            Instr::Grid { outs, .. } => outs.clone(),
+            Instr::PseudoInverse { outs, .. } => outs.to_vec(),
+        }
+    }
+}
+
+/// For each output, the last instruction writing its register: an output's register stays live
+/// to the end of the tape, so that write is its final value.
+fn emit_schedule(instrs: &[Instr], outputs: &[Reg]) -> Vec<(usize, usize)> {
+    let mut last_write: HashMap<Reg, usize> = HashMap::new();
+    for (k, instr) in instrs.iter().enumerate() {
+        for r in instr.writes() {
+            if r != UNUSED {
+                last_write.insert(r, k);
+            }
+        }
+    }
+    let mut emits: Vec<(usize, usize)> = outputs
+        .iter()
+        .enumerate()
+        .map(|(c, r)| (last_write.get(r).copied().unwrap_or(instrs.len()), c))
+        .collect();
+    emits.sort_unstable();
+    emits
 }

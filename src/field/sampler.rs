@@ -46,7 +46,6 @@ impl CompiledField {
 
 struct CompiledEval<'a> {
     evaluator: Evaluator<'a>,
-    width: usize,
 }
 
 impl CompiledEval<'_> {
@@ -62,11 +61,13 @@ impl CompiledEval<'_> {
         let mut start = 0;
         while start < total {
             let end = (start + BLOCK).min(total);
-            self.evaluator
-                .run(&xs[start..end], &ys[start..end], &zs[start..end], precision);
-            for c in 0..self.width {
-                store(c, start, self.evaluator.output(c, end - start));
-            }
+            self.evaluator.run_emitting(
+                &xs[start..end],
+                &ys[start..end],
+                &zs[start..end],
+                precision,
+                |c, values| store(c, start, values),
+            );
             start = end;
         }
     }
@@ -99,7 +100,6 @@ impl FieldSampler for CompiledField {
     fn evaluator(&self) -> Box<dyn BlockEval + '_> {
         Box::new(CompiledEval {
             evaluator: Evaluator::new(&self.program),
-            width: self.roots.len(),
         })
     }
 

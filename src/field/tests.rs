@@ -391,3 +391,42 @@ fn stats_match_closed_forms() {
     assert_eq!((min, max, mean), (0.25, 1.75, 1.0));
     assert!(stats(&x(), &d).is_err());
 }
+
+#[test]
+fn every_output_is_emitted_once_with_its_final_value() {
+    // Outputs of every origin: a coordinate (no instruction writes it), a constant, one value
+    // twice, and values finalised at different points of the tape. Each must reach `emit`
+    // exactly once, equal to what the output registers hold after the run.
+    use crate::field::eval::{Evaluator, Precision};
+    use crate::field::program::Program;
+    let p = Field::identity();
+    let r = p.length().unwrap();
+    let g = grad(&r).unwrap();
+    let mut roots = vec![p.component(1).unwrap().components()[0].clone()];
+    roots.push(s(2.5).components()[0].clone());
+    roots.extend_from_slice(r.components());
+    roots.extend_from_slice(g.components());
+    roots.extend_from_slice(r.components());
+    let program = Program::compile(&roots);
+    let mut evaluator = Evaluator::new(&program);
+    let xs = [0.3, -1.0, 2.0];
+    let ys = [0.4, 0.5, -2.0];
+    let zs = [1.2, 0.0, 1.0];
+    let mut seen = vec![None; roots.len()];
+    evaluator.run_emitting(&xs, &ys, &zs, Precision::Double, |c, values| {
+        assert!(seen[c].is_none(), "output {c} emitted twice");
+        seen[c] = Some(values.to_vec());
+    });
+    for (c, values) in seen.iter().enumerate() {
+        assert_eq!(
+            values.as_deref(),
+            Some(evaluator.output(c, 3)),
+            "output {c}"
+        );
+    }
+    assert_eq!(seen[0].as_deref(), Some(&ys[..]));
+    assert_eq!(seen[1].as_deref(), Some(&[2.5; 3][..]));
+    let length = (0.3f64 * 0.3 + 0.4 * 0.4 + 1.2 * 1.2).sqrt();
+    assert_eq!(seen[2].as_ref().unwrap()[0], length);
+    assert_eq!(seen[3].as_ref().unwrap()[0], 0.3 / length);
+}
