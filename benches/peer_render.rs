@@ -466,6 +466,8 @@ fn main() {
     let reference_path = dir.join("reference.exr");
     let reference_run = felt_runs(dir, &grid, &reference_path, v / 8.0, "cache", 1);
     let reference = read_rgba(&reference_path);
+    // (step in voxels, render s, RGB RMSE vs the lighting reference) of each study row.
+    let mut study = Vec::new();
     for divisions in [64usize, 128, 256, 512, 1024, 2048] {
         let step = 2.0 / divisions as f64;
         let path = dir.join(format!("step_{divisions}.exr"));
@@ -482,5 +484,35 @@ fn main() {
             "| 2/{divisions} | {} | {run:.3} | {rgba:.2e} | {alpha:.2e} | {lit:.2e} |",
             step / v
         );
+        study.push((step / v, run, lit));
+    }
+
+    // The target is a time ratio at equal or better quality: for each vdb_render setting, the
+    // fastest felt step whose lighting error is no larger than vdb_render's own.
+    println!(
+        "\n## equal or better quality: fastest felt step (study above, 1 run) with RGB RMSE <= vdb_render's"
+    );
+    println!(
+        "| vdb_render setting | its render s | its RGB RMSE | felt step (voxels) | felt render s | felt RGB RMSE | felt / vdb_render time |"
+    );
+    println!("|---|---|---|---|---|---|---|");
+    for vdb in &rows[..3] {
+        let (vdb_lit, _) = compare(&vdb.image, &lighting_reference, 0..3);
+        let best = study
+            .iter()
+            .filter(|(_, _, lit)| *lit <= vdb_lit)
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        match best {
+            Some((voxels, run, lit)) => println!(
+                "| {} | {:.3} | {vdb_lit:.2e} | {voxels} | {run:.3} | {lit:.2e} | {:.2} |",
+                vdb.name,
+                vdb.render,
+                run / vdb.render
+            ),
+            None => println!(
+                "| {} | {:.3} | {vdb_lit:.2e} | none | | | |",
+                vdb.name, vdb.render
+            ),
+        }
     }
 }
