@@ -172,42 +172,110 @@ fn binary(op: BinOp, a: Interval, b: Interval) -> Interval {
 
 /// Intervals of `roots` over positions in `region`.
 pub fn ranges(roots: &[NodeRef], region: &Aabb) -> Vec<Interval> {
-    let order = node::postorder(roots);
-    let mut iv: HashMap<u64, Interval> = HashMap::with_capacity(order.len());
-    let mut kernel_iv: HashMap<u64, Vec<Interval>> = HashMap::new();
-    for n in &order {
-        let get = |c: &NodeRef| iv.get(&c.id).copied().unwrap_or(ALL);
-        let r = match &n.op {
-            Op::Const(c) => Interval::point(*c),
-            Op::X => Interval::new(region.min.x, region.max.x),
-            Op::Y => Interval::new(region.min.y, region.max.y),
-            Op::Z => Interval::new(region.min.z, region.max.z),
-            Op::Unary(m, a) => unary(*m, get(a)),
-            Op::Binary(op, a, b) => binary(*op, get(a), get(b)),
-            Op::Select(c, a, b) => {
-                let c = get(c);
-                if c.lo >= 0.0 {
-                    get(a)
-                } else if c.hi < 0.0 {
-                    get(b)
-                } else {
-                    get(a).union(get(b))
+    IntervalTape::new(roots).ranges(region)
+}
+
+/// A node graph flattened once for repeated interval evaluation: each step names its operands
+/// by position, so evaluating a box is one pass over a vector. Cache fills ask for the range of
+/// every brick and the support search for thousands of boxes; neither should walk and hash the
+/// graph each time.
+#[derive(Clone, Debug)]
+pub struct IntervalTape {
+    steps: Vec<Step>,
+    roots: Vec<usize>,
+    kernels: usize,
+}
+
+#[derive(Clone, Debug)]
+enum Step {
+    Const(f64),
+    X,
+    Y,
+    Z,
+    Unary(MathFn, usize),
+    Binary(BinOp, usize, usize),
+    Select(usize, usize, usize),
+    /// The kernel's node, its argument steps, and its slot among the kernels.
+    Kernel(NodeRef, Vec<usize>, usize),
+    /// Output `index` of the kernel in `slot`.
+    Output {
+        slot: usize,
+        index: usize,
+    },
+}
+
+impl IntervalTape {
+    pub fn new(roots: &[NodeRef]) -> IntervalTape {
+        let order = node::postorder(roots);
+        let position: HashMap<u64, usize> =
+            order.iter().enumerate().map(|(i, n)| (n.id, i)).collect();
+        let at = |n: &NodeRef| position[&n.id];
+        let mut slot_of: HashMap<u64, usize> = HashMap::new();
+        let mut steps = Vec::with_capacity(order.len());
+        for n in &order {
+            steps.push(match &n.op {
+                Op::Const(c) => Step::Const(*c),
+                Op::X => Step::X,
+                Op::Y => Step::Y,
+                Op::Z => Step::Z,
+                Op::Unary(m, a) => Step::Unary(*m, at(a)),
+                Op::Binary(op, a, b) => Step::Binary(*op, at(a), at(b)),
+                Op::Select(c, a, b) => Step::Select(at(c), at(a), at(b)),
+                Op::Kernel(_, args) => {
+                    let slot = slot_of.len();
+                    slot_of.insert(n.id, slot);
+                    Step::Kernel(n.clone(), args.iter().map(at).collect(), slot)
                 }
-            }
-            Op::Kernel(k, args) => {
-                let outs = kernel_ranges(k, &args.iter().map(get).collect::<Vec<_>>());
-                kernel_iv.insert(n.id, outs);
-                ALL
-            }
-            Op::Output(k, i) => kernel_iv
-                .get(&k.id)
-                .and_then(|v| v.get(*i as usize))
-                .copied()
-                .unwrap_or(ALL),
-        };
-        iv.insert(n.id, r);
+                Op::Output(k, i) => Step::Output {
+                    slot: slot_of[&k.id],
+                    index: *i as usize,
+                },
+            });
+        }
+        IntervalTape {
+            steps,
+            roots: roots.iter().map(at).collect(),
+            kernels: slot_of.len(),
+        }
     }
-    roots.iter().map(|r| iv[&r.id]).collect()
+
+    /// Intervals of the roots over positions in `region`.
+    pub fn ranges(&self, region: &Aabb) -> Vec<Interval> {
+        let mut iv: Vec<Interval> = Vec::with_capacity(self.steps.len());
+        let mut kernel_iv: Vec<Vec<Interval>> = vec![Vec::new(); self.kernels];
+        for step in &self.steps {
+            let r = match step {
+                Step::Const(c) => Interval::point(*c),
+                Step::X => Interval::new(region.min.x, region.max.x),
+                Step::Y => Interval::new(region.min.y, region.max.y),
+                Step::Z => Interval::new(region.min.z, region.max.z),
+                Step::Unary(m, a) => unary(*m, iv[*a]),
+                Step::Binary(op, a, b) => binary(*op, iv[*a], iv[*b]),
+                Step::Select(c, a, b) => {
+                    let c = iv[*c];
+                    if c.lo >= 0.0 {
+                        iv[*a]
+                    } else if c.hi < 0.0 {
+                        iv[*b]
+                    } else {
+                        iv[*a].union(iv[*b])
+                    }
+                }
+                Step::Kernel(node, args, slot) => {
+                    if let Op::Kernel(k, _) = &node.op {
+                        let args: Vec<Interval> = args.iter().map(|&a| iv[a]).collect();
+                        kernel_iv[*slot] = kernel_ranges(k, &args);
+                    }
+                    ALL
+                }
+                Step::Output { slot, index } => {
+                    kernel_iv[*slot].get(*index).copied().unwrap_or(ALL)
+                }
+            };
+            iv.push(r);
+        }
+        self.roots.iter().map(|&r| iv[r]).collect()
+    }
 }
 
 fn kernel_ranges(kernel: &Kernel, args: &[Interval]) -> Vec<Interval> {
@@ -258,7 +326,8 @@ pub fn support(roots: &[NodeRef]) -> Option<Aabb> {
         Some(b) if b.is_finite() => b,
         _ => Aabb::new(DVec3::splat(-1e5), DVec3::splat(1e5)),
     };
-    let maybe_nonzero = |b: &Aabb| ranges(roots, b).iter().any(|r| !r.is_zero());
+    let tape = IntervalTape::new(roots);
+    let maybe_nonzero = |b: &Aabb| tape.ranges(b).iter().any(|r| !r.is_zero());
     if !maybe_nonzero(&start) {
         return Some(Aabb::new(DVec3::ZERO, DVec3::ZERO));
     }

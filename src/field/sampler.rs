@@ -22,6 +22,8 @@ use std::sync::{Arc, OnceLock};
 pub struct CompiledField {
     program: Program,
     roots: Vec<NodeRef>,
+    /// The roots' graph flattened for the interval ranges asked of every brick.
+    intervals: interval::IntervalTape,
     support: OnceLock<Option<Aabb>>,
 }
 
@@ -30,6 +32,7 @@ impl CompiledField {
         CompiledField {
             program: Program::compile(field.components()),
             roots: field.components().to_vec(),
+            intervals: interval::IntervalTape::new(field.components()),
             support: OnceLock::new(),
         }
     }
@@ -108,7 +111,8 @@ impl FieldSampler for CompiledField {
     }
 
     fn range(&self, region: &Aabb) -> Vec<(f64, f64)> {
-        interval::ranges(&self.roots, region)
+        self.intervals
+            .ranges(region)
             .into_iter()
             .map(|r| (r.lo, r.hi))
             .collect()
