@@ -18,12 +18,13 @@
 
 use felt::field::noise::{self, NoiseKind, NoiseOutput};
 use felt::sample::BLOCK;
-use felt::session::Session;
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use std::sync::{Arc, Mutex};
 use std::time::Instant;
+
+#[path = "peer/felt_run.rs"]
+mod felt_run;
+use felt_run::{cpu_seconds, median, printed, run_felt};
 
 const CELLS: usize = 256;
 const RUNS: usize = 3;
@@ -67,82 +68,6 @@ print(\"fill_seconds\", t1 - t0);
 /// The same script plus the value range over the cells, for the sanity rows (not timed).
 fn felt_stats_script(noise: &str) -> String {
     felt_script(noise) + "print(\"stats\", stats(cacheread(c), d));\n"
-}
-
-/// A `Write` the bench can read back after the session is done with it.
-#[derive(Clone, Default)]
-struct Captured(Arc<Mutex<Vec<u8>>>);
-
-impl Write for Captured {
-    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
-        self.0
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .extend_from_slice(buf);
-        Ok(buf.len())
-    }
-    fn flush(&mut self) -> std::io::Result<()> {
-        Ok(())
-    }
-}
-
-impl Captured {
-    fn text(&self) -> String {
-        String::from_utf8_lossy(&self.0.lock().unwrap_or_else(|e| e.into_inner())).into_owned()
-    }
-}
-
-/// Runs a script in a fresh session; returns the wall and CPU seconds of `run_file` and what
-/// it printed.
-fn run_felt(path: &Path) -> (f64, f64, String) {
-    let out = Captured::default();
-    let mut session = match Session::new(Box::new(out.clone())) {
-        Ok(s) => s,
-        Err(_) => panic!("the standard library failed to load"),
-    };
-    let (start, cpu_start) = (Instant::now(), cpu_seconds().0);
-    let result = session.run_file(path);
-    let seconds = start.elapsed().as_secs_f64();
-    let cpu = cpu_seconds().0 - cpu_start;
-    if let Err(diagnostics) = result {
-        let messages: Vec<&str> = diagnostics.iter().map(|d| d.message.as_str()).collect();
-        panic!("{} failed: {messages:?}", path.display());
-    }
-    (seconds, cpu, out.text())
-}
-
-/// The number after `key` on the line that starts with it.
-fn printed(text: &str, key: &str) -> Option<f64> {
-    text.lines()
-        .find_map(|l| l.strip_prefix(key))
-        .and_then(|rest| rest.trim().parse().ok())
-}
-
-/// CPU seconds (user + system) used so far by this process and by its waited-for children,
-/// from `/proc/self/stat` (ticks of 1/100 s); zeros where that file does not exist. Other work
-/// shares this machine, so CPU time is reported next to wall time.
-fn cpu_seconds() -> (f64, f64) {
-    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else {
-        return (0.0, 0.0);
-    };
-    // Fields after the parenthesised command name: utime, stime, cutime, cstime are 14–17.
-    let after_name = stat.rsplit(')').next().unwrap_or("");
-    let fields: Vec<&str> = after_name.split_whitespace().collect();
-    let ticks = |n: usize| {
-        fields
-            .get(n)
-            .and_then(|f| f.parse::<f64>().ok())
-            .unwrap_or(0.0)
-    };
-    (
-        (ticks(11) + ticks(12)) / 100.0,
-        (ticks(13) + ticks(14)) / 100.0,
-    )
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
 }
 
 struct FeltResult {

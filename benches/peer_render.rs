@@ -27,12 +27,13 @@
 //!
 //! Skips with a message when `vdb_render` is missing. Run with `cargo bench --bench peer_render`.
 
-use felt::session::Session;
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use std::sync::{Arc, Mutex};
 use std::time::Instant;
+
+#[path = "peer/felt_run.rs"]
+mod felt_run;
+use felt_run::{cpu_seconds, median, printed, run_felt};
 
 const CELLS: usize = 256;
 const WIDTH: usize = 640;
@@ -92,73 +93,13 @@ print(\"render_seconds\", t1 - t0);
     )
 }
 
-/// A `Write` the bench can read back after the session is done with it.
-#[derive(Clone, Default)]
-struct Captured(Arc<Mutex<Vec<u8>>>);
-
-impl Write for Captured {
-    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
-        self.0
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .extend_from_slice(buf);
-        Ok(buf.len())
-    }
-    fn flush(&mut self) -> std::io::Result<()> {
-        Ok(())
-    }
-}
-
-/// Runs `text` as a script in a fresh session; returns the wall and CPU seconds of `run_file`
-/// and the number it printed after `render_seconds`, if any.
-fn run_felt(dir: &Path, name: &str, text: &str) -> (f64, f64, Option<f64>) {
+/// Writes `text` as script `name` in `dir` and runs it; returns the wall and CPU seconds of
+/// `run_file` and the number it printed after `render_seconds`, if any.
+fn run_script(dir: &Path, name: &str, text: &str) -> (f64, f64, Option<f64>) {
     let path = dir.join(name);
     std::fs::write(&path, text).expect("write the felt script");
-    let out = Captured::default();
-    let mut session = match Session::new(Box::new(out.clone())) {
-        Ok(s) => s,
-        Err(_) => panic!("the standard library failed to load"),
-    };
-    let (start, cpu_start) = (Instant::now(), cpu_seconds().0);
-    let result = session.run_file(&path);
-    let seconds = start.elapsed().as_secs_f64();
-    let cpu = cpu_seconds().0 - cpu_start;
-    if let Err(diagnostics) = result {
-        let messages: Vec<&str> = diagnostics.iter().map(|d| d.message.as_str()).collect();
-        panic!("{name} failed: {messages:?}");
-    }
-    let printed = String::from_utf8_lossy(&out.0.lock().unwrap_or_else(|e| e.into_inner()))
-        .lines()
-        .find_map(|l| l.strip_prefix("render_seconds"))
-        .and_then(|v| v.trim().parse().ok());
-    (seconds, cpu, printed)
-}
-
-/// CPU seconds (user + system) used so far by this process and by its waited-for children,
-/// from `/proc/self/stat` (ticks of 1/100 s); zeros where that file does not exist. Other work
-/// shares this machine, so CPU time is reported next to wall time.
-fn cpu_seconds() -> (f64, f64) {
-    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else {
-        return (0.0, 0.0);
-    };
-    // Fields after the parenthesised command name: utime, stime, cutime, cstime are 14–17.
-    let after_name = stat.rsplit(')').next().unwrap_or("");
-    let fields: Vec<&str> = after_name.split_whitespace().collect();
-    let ticks = |n: usize| {
-        fields
-            .get(n)
-            .and_then(|f| f.parse::<f64>().ok())
-            .unwrap_or(0.0)
-    };
-    (
-        (ticks(11) + ticks(12)) / 100.0,
-        (ticks(13) + ticks(14)) / 100.0,
-    )
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
+    let (seconds, cpu, printed_text) = run_felt(&path);
+    (seconds, cpu, printed(&printed_text, "render_seconds"))
 }
 
 struct Rgba {
@@ -293,11 +234,11 @@ fn felt_runs(
 ) -> FeltRun {
     let script = render_script(grid, out, step, shadows);
     if runs > 1 {
-        run_felt(dir, "render.felt", &script);
+        run_script(dir, "render.felt", &script);
     }
     let (mut wholes, mut cpus, mut renders) = (Vec::new(), Vec::new(), Vec::new());
     for _ in 0..runs {
-        let (whole, cpu, render) = run_felt(dir, "render.felt", &script);
+        let (whole, cpu, render) = run_script(dir, "render.felt", &script);
         wholes.push(whole);
         cpus.push(cpu);
         renders.push(render.expect("the script prints its render time"));
@@ -318,7 +259,7 @@ fn main() {
     let dir = dir.path();
     let grid: PathBuf = dir.join("pyroclastic.vdb");
     let start = Instant::now();
-    run_felt(dir, "make_grid.felt", &make_grid_script(&grid));
+    run_script(dir, "make_grid.felt", &make_grid_script(&grid));
     println!(
         "grid: felt cachesave of the pyroclastic sphere, {CELLS}^3 over [-1,1]^3, in {:.1} s (not timed below)",
         start.elapsed().as_secs_f64()
