@@ -10,8 +10,10 @@
 //! rendering precision) or `f64` (inspection precision), component-major:
 //! component `c` of point `i` is `out[c * n + i]`.
 
-use glam::DVec3;
+use crate::failure::Outcome;
+use glam::{DMat3, DVec3};
 use std::fmt::Debug;
+use std::sync::Arc;
 
 /// The largest number of points in one evaluation block.
 pub const BLOCK: usize = 256;
@@ -82,6 +84,19 @@ pub enum GridDerivative {
     Central,
 }
 
+/// Where a grid's samples sit: the centre of cell `(i, j, k)` is
+/// `origin + rotation · ((i + ½, j + ½, k + ½) ∘ cell)`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lattice {
+    pub origin: DVec3,
+    /// Columns are the grid's axes in world space.
+    pub rotation: DMat3,
+    pub cell: DVec3,
+    pub counts: [usize; 3],
+    /// Reads outside the box extrapolate (instead of giving the background).
+    pub extrapolates: bool,
+}
+
 /// A sampled grid that a field program can read: a cache, a grid loaded from a file, the
 /// result of an FFT. Implemented in `grid`, called from the field evaluator.
 pub trait GridSource: Send + Sync + Debug {
@@ -106,6 +121,23 @@ pub trait GridSource: Send + Sync + Debug {
     /// A conservative range `(lo, hi)` per component of the values inside `region`.
     /// May fill the parts of the grid it needs.
     fn range(&self, region: &Aabb) -> Vec<(f64, f64)>;
+    /// Where the samples sit, for schemes that look at the cells around a point (the
+    /// clamp of MacCormack advection).
+    fn lattice(&self) -> Option<Lattice> {
+        None
+    }
+    /// The grids that values not yet computed still read (a pending fill's or solve's
+    /// inputs). Empty once everything is computed.
+    fn pending_inputs(&self) -> Vec<Arc<dyn GridSource>> {
+        Vec::new()
+    }
+    /// Computes the grid now if it is a whole-grid solve that has not run (an FFT projection);
+    /// brick-lazy grids do nothing here. Called by `grid::demand` before an output runs, in
+    /// dependency order, so that solves run on all threads and never inside another
+    /// parallel evaluation.
+    fn solve(&self) -> Outcome<()> {
+        Ok(())
+    }
 }
 
 /// Evaluates a field on blocks of points. Holds the per-thread scratch space, so each thread
@@ -127,6 +159,10 @@ pub trait FieldSampler: Send + Sync {
     fn bounds(&self) -> Option<Aabb>;
     /// A conservative range `(lo, hi)` per component over `region` (interval evaluation).
     fn range(&self, region: &Aabb) -> Vec<(f64, f64)>;
+    /// The grids the field reads (for `grid::demand`); none for a closure.
+    fn grids(&self) -> Vec<Arc<dyn GridSource>> {
+        Vec::new()
+    }
 }
 
 /// A field given by a Rust closure of the world position: for tests, benchmarks, and

@@ -19,6 +19,7 @@ use std::rc::Rc;
 /// The standard library, compiled into the binary so felt runs from anywhere.
 pub const STDLIB: &[(&str, &str)] = &[
     ("stdlib/cumulo.felt", include_str!("../stdlib/cumulo.felt")),
+    ("stdlib/fluids.felt", include_str!("../stdlib/fluids.felt")),
     ("stdlib/knives.felt", include_str!("../stdlib/knives.felt")),
     (
         "stdlib/pyroclastic.felt",

@@ -16,6 +16,7 @@
 //! - Precision: registers are `f64` everywhere; only noise in cache fills and renders runs in
 //!   `f32` offsets from an `f64` block base (see `eval`).
 
+mod advection;
 mod calculus;
 pub mod eval;
 pub mod interval;
@@ -27,8 +28,9 @@ mod sampler;
 #[cfg(test)]
 mod tests;
 
+pub use advection::{Scheme, advect, advect_with};
 pub use node::MathFn;
-pub use sampler::{CompiledField, probe, stats};
+pub use sampler::{CompiledField, grids_read, prepare, probe, stats};
 
 use crate::failure::{Failure, Outcome};
 use crate::sample::{GridDerivative, GridSource, Interp};
@@ -515,49 +517,6 @@ impl Field {
 
 pub fn compose(f: &Field, at: &Field) -> Outcome<Field> {
     f.compose(at)
-}
-
-/// `f` carried along `u` for time `dt`: `f` at the back-traced point, found by one explicit
-/// step (order 1) or a Runge–Kutta scheme of order 2 (midpoint), 3 (Kutta) or 4 (classic).
-pub fn advect(f: &Field, u: &Field, dt: &Field, order: u32) -> Outcome<Field> {
-    u.only_vector("the velocity of advect")?;
-    dt.only_scalar("the time step of advect")?;
-    let x = Field::identity();
-    // Tracing backwards is tracing forwards along -u.
-    let h = dt.neg();
-    let u_at = |p: &Field| u.compose(p);
-    let step = |p: &Field, k: &Field, s: f64| -> Outcome<Field> {
-        p.add(&k.mul(&h.mul(&Field::constant_scalar(s))?)?)
-    };
-    let back = match order {
-        1 => step(&x, u, 1.0)?,
-        2 => {
-            let k2 = u_at(&step(&x, u, 0.5)?)?;
-            step(&x, &k2, 1.0)?
-        }
-        3 => {
-            let k1 = u.clone();
-            let k2 = u_at(&step(&x, &k1, 0.5)?)?;
-            let k3 = u_at(&step(&step(&x, &k1, -1.0)?, &k2, 2.0)?)?;
-            let sum = k1.add(&k2.mul(&Field::constant_scalar(4.0))?)?.add(&k3)?;
-            step(&x, &sum, 1.0 / 6.0)?
-        }
-        4 => {
-            let k1 = u.clone();
-            let k2 = u_at(&step(&x, &k1, 0.5)?)?;
-            let k3 = u_at(&step(&x, &k2, 0.5)?)?;
-            let k4 = u_at(&step(&x, &k3, 1.0)?)?;
-            let two = Field::constant_scalar(2.0);
-            let sum = k1.add(&k2.mul(&two)?)?.add(&k3.mul(&two)?)?.add(&k4)?;
-            step(&x, &sum, 1.0 / 6.0)?
-        }
-        other => {
-            return Err(Failure::new(format!(
-                "advect order must be 1, 2, 3 or 4, found {other}"
-            )));
-        }
-    };
-    f.compose(&back)
 }
 
 /// `f(x - offset)`.

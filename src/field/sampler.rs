@@ -9,11 +9,11 @@
 use crate::failure::{Failure, Outcome};
 use crate::field::eval::{Evaluator, Precision};
 use crate::field::interval;
-use crate::field::node::NodeRef;
+use crate::field::node::{Kernel, NodeRef, Op};
 use crate::field::program::Program;
 use crate::field::{Field, FieldKind, FieldValue};
 use crate::grid::domain::Domain;
-use crate::sample::{Aabb, BLOCK, BlockEval, FieldSampler};
+use crate::sample::{Aabb, BLOCK, BlockEval, FieldSampler, GridSource};
 use glam::{DMat3, DVec3};
 use rayon::prelude::*;
 use std::sync::{Arc, OnceLock};
@@ -25,6 +25,8 @@ pub struct CompiledField {
     /// The roots' graph flattened for the interval ranges asked of every brick.
     intervals: interval::IntervalTape,
     support: OnceLock<Option<Aabb>>,
+    /// Every grid the roots read, for solving them ahead of an output.
+    grids: Vec<Arc<dyn GridSource>>,
 }
 
 impl CompiledField {
@@ -34,7 +36,21 @@ impl CompiledField {
             roots: field.components().to_vec(),
             intervals: interval::IntervalTape::new(field.components()),
             support: OnceLock::new(),
+            grids: grids_read(field.components()),
         }
+    }
+
+    /// Compiled and with its whole-grid solves run: what outputs evaluate.
+    pub fn prepared(field: &Field) -> Outcome<CompiledField> {
+        let compiled = CompiledField::new(field);
+        compiled.prepare()?;
+        Ok(compiled)
+    }
+
+    /// Runs the whole-grid solves this field depends on, in dependency order (see
+    /// `grid::demand`). Every output calls this before it evaluates in parallel.
+    pub fn prepare(&self) -> Outcome<()> {
+        crate::grid::demand::solve_ahead(self.grids.clone())
     }
 
     pub fn program(&self) -> &Program {
@@ -110,6 +126,10 @@ impl FieldSampler for CompiledField {
         *self.support.get_or_init(|| interval::support(&self.roots))
     }
 
+    fn grids(&self) -> Vec<Arc<dyn GridSource>> {
+        self.grids.clone()
+    }
+
     fn range(&self, region: &Aabb) -> Vec<(f64, f64)> {
         self.intervals
             .ranges(region)
@@ -119,6 +139,26 @@ impl FieldSampler for CompiledField {
     }
 }
 
+/// The grids that the graph under `roots` reads, each once, in the order first met.
+pub fn grids_read(roots: &[NodeRef]) -> Vec<Arc<dyn GridSource>> {
+    let mut seen = std::collections::HashSet::new();
+    let mut grids = Vec::new();
+    for node in crate::field::node::postorder(roots) {
+        if let Op::Kernel(Kernel::GridValue { grid, .. } | Kernel::GridGradient { grid, .. }, _) =
+            &node.op
+            && seen.insert(grid.identity())
+        {
+            grids.push(grid.clone());
+        }
+    }
+    grids
+}
+
+/// Runs the whole-grid solves `field` depends on (see `CompiledField::prepare`).
+pub fn prepare(field: &Field) -> Outcome<()> {
+    crate::grid::demand::solve_ahead(grids_read(field.components()))
+}
+
 /// The value of `field` at `point`, in double precision.
 pub fn probe(field: &Field, point: DVec3) -> Outcome<FieldValue> {
     if !point.is_finite() {
@@ -126,6 +166,7 @@ pub fn probe(field: &Field, point: DVec3) -> Outcome<FieldValue> {
             "probe point must be finite, found {point}"
         )));
     }
+    prepare(field)?;
     let program = Program::compile(field.components());
     let mut evaluator = Evaluator::new(&program);
     evaluator.run(&[point.x], &[point.y], &[point.z], Precision::Double);
@@ -163,6 +204,7 @@ pub fn stats_with_count(field: &Field, domain: &Domain) -> Outcome<(f64, f64, f6
             .with_help("give the domain a cell size: domain(origin, lengths, orientation, cell)")
     })?;
     let cells = nx * ny * nz;
+    prepare(field)?;
     let program = Program::compile(field.components());
     let runs = cells.div_ceil(STATS_RUN);
     let partials: Vec<Option<(f64, f64, f64, u64)>> = (0..runs)

@@ -23,6 +23,7 @@
 //! Filling bricks lives in `cache/fill.rs`; reading (interpolation, gradients, ranges) in
 //! `cache/read.rs`.
 
+pub mod extrapolated;
 mod fill;
 mod read;
 #[cfg(test)]
@@ -101,8 +102,6 @@ impl Shape {
 fn local_index(x: usize, y: usize, z: usize) -> usize {
     x + BRICK * (y + BRICK * z)
 }
-
-static NEXT_IDENTITY: AtomicU64 = AtomicU64::new(1);
 
 /// One state of a cache: values of a field at the cell centres of a domain.
 pub struct Cache {
@@ -287,7 +286,7 @@ impl Cache {
             stored_bytes: AtomicU64::new(0),
             nonfinite: AtomicU64::new(0),
             first_nonfinite: Mutex::new(None),
-            identity: NEXT_IDENTITY.fetch_add(1, Ordering::Relaxed),
+            identity: crate::grid::next_identity(),
             label,
             profile: None,
         })

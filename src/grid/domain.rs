@@ -123,6 +123,17 @@ impl Domain {
         Ok(domain)
     }
 
+    /// Where the cell centres sit, for readers of grids over this domain.
+    pub fn lattice(&self) -> crate::sample::Lattice {
+        crate::sample::Lattice {
+            origin: self.origin,
+            rotation: self.rotation,
+            cell: self.cell,
+            counts: self.resolution.unwrap_or([1, 1, 1]),
+            extrapolates: false,
+        }
+    }
+
     /// Number of cells (0 for a domain without cells).
     pub fn cell_count(&self) -> usize {
         self.resolution.map(|r| r[0] * r[1] * r[2]).unwrap_or(0)

@@ -104,20 +104,29 @@ pub fn gaussian_random_field(
 
 /// Removes the divergent part of a periodic vector field sampled at cell centres
 /// (component-major, width 3, components along the grid's own axes) in place, by projection in
-/// Fourier space with the spectral derivative. Used by `fftdivfree`.
+/// Fourier space with the spectral derivative. The samples are projected in `f64` and rounded
+/// back to `f32`.
 pub fn project_divergence_free(
     resolution: [usize; 3],
     cell: DVec3,
     data: &mut [f32],
 ) -> Outcome<()> {
-    project_divergence_free_with(resolution, cell, data, DivergenceOperator::Spectral)
+    let mut wide: Vec<f64> = data.iter().map(|&v| f64::from(v)).collect();
+    project_divergence_free_with(resolution, cell, &mut wide, DivergenceOperator::Spectral)?;
+    for (out, v) in data.iter_mut().zip(wide) {
+        *out = v as f32;
+    }
+    Ok(())
 }
 
-/// [`project_divergence_free`] with a choice of the divergence that is made to vanish.
+/// Removes, in place, the part of a periodic vector field (`f64` samples at cell centres,
+/// component-major, width 3, components along the grid's own axes) that `operator`'s
+/// divergence sees: afterwards that discrete divergence vanishes to round-off, and projecting
+/// again changes nothing beyond round-off. Used by `fftdivfree` with central differences.
 pub fn project_divergence_free_with(
     resolution: [usize; 3],
     cell: DVec3,
-    data: &mut [f32],
+    data: &mut [f64],
     operator: DivergenceOperator,
 ) -> Outcome<()> {
     let grid = Grid::new(resolution, cell.to_array())?;
@@ -137,13 +146,13 @@ pub fn project_divergence_free_with(
             data[at]
         )));
     }
-    check_working_memory(grid.len, 16 * 4, "fftdivfree")?;
+    check_working_memory(grid.len, PROJECTION_BYTES_PER_CELL, "fftdivfree")?;
     let mut spectra: Vec<Vec<Complex64>> = data
         .chunks(grid.len)
         .map(|component| {
             let mut s: Vec<Complex64> = component
                 .par_iter()
-                .map(|v| Complex64::new(*v as f64, 0.0))
+                .map(|v| Complex64::new(*v, 0.0))
                 .collect();
             grid.transform(&mut s, FftDirection::Forward);
             s
@@ -155,12 +164,16 @@ pub fn project_divergence_free_with(
         grid.transform(s, FftDirection::Inverse);
         out.par_iter_mut()
             .zip(s.par_iter())
-            .for_each(|(o, v)| *o = (v.re * scale) as f32);
+            .for_each(|(o, v)| *o = v.re * scale);
     }
     Ok(())
 }
 
-fn check_working_memory(cells: usize, bytes_per_cell: usize, what: &str) -> Outcome<()> {
+/// Bytes per cell that [`project_divergence_free_with`] needs beyond its input: three complex
+/// spectra and the scratch of one transform pass.
+pub const PROJECTION_BYTES_PER_CELL: usize = 16 * 4;
+
+pub fn check_working_memory(cells: usize, bytes_per_cell: usize, what: &str) -> Outcome<()> {
     let bytes = cells as f64 * bytes_per_cell as f64;
     let limit = memory_limit() as f64;
     if bytes > limit {
@@ -263,8 +276,17 @@ impl Grid {
                 }
                 k
             }
+            // The Nyquist mode (and the mean) are set to exactly zero: central differences
+            // cannot see them, and `sin(π)` rounds to 1.2e-16, which would otherwise make the
+            // projection remove a mode that the divergence does not contain.
             DivergenceOperator::CentralDifference => (0..n)
-                .map(|m| (2.0 * PI * m as f64 / n as f64).sin() / h)
+                .map(|m| {
+                    if m == 0 || 2 * m == n {
+                        0.0
+                    } else {
+                        (2.0 * PI * m as f64 / n as f64).sin() / h
+                    }
+                })
                 .collect(),
         }
     }

@@ -47,6 +47,7 @@ pub fn save(cache: &Cache, path: &Path, name: &str) -> Outcome<()> {
     for (b, v) in background.iter_mut().zip(cache.background_values()) {
         *b = *v as f32;
     }
+    cache.prepare()?;
     cache.fill_all();
     let max = res.map(|n| n as i32 - 1);
     let grid = VdbGrid::new(name, class, value_type, background, index_to_world).with_values_from(

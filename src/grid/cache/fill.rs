@@ -53,6 +53,16 @@ impl Cache {
         );
     }
 
+    /// Runs the whole-grid solves the pending bricks read (see `grid::demand`); outputs call
+    /// this before `fill_all`, so that a failed solve is an error of the output.
+    pub fn prepare(&self) -> crate::failure::Outcome<()> {
+        let source = lock(&self.source).clone();
+        match source {
+            Some(source) => crate::grid::demand::solve_ahead(source.grids()),
+            None => Ok(()),
+        }
+    }
+
     pub(super) fn fill_lazily(&self, index: usize) -> Brick {
         let source = lock(&self.source).clone();
         match source {

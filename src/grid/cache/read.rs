@@ -19,10 +19,11 @@
 #[cfg(test)]
 mod tests;
 
-use super::{BRICK, Cache, MAX_WIDTH};
+use super::{BRICK, Cache, MAX_WIDTH, lock};
 use crate::grid::interp::{AxisStencil, BORDER_WEIGHT_BOUND, CUBIC_WEIGHT_BOUND, axis_stencil};
-use crate::sample::{Aabb, GridSource, Interp};
+use crate::sample::{Aabb, GridSource, Interp, Lattice};
 use glam::{BVec3, DVec3};
+use std::sync::Arc;
 
 /// The cells one point reads, resolved to brick storage.
 struct Stencil<'a> {
@@ -210,7 +211,24 @@ impl Cache {
         }
     }
 
-    fn sample_block<const W: usize>(
+    /// Continuous cell-index coordinates of any world point; outside the box the stencils
+    /// extrapolate linearly from the two outermost cells.
+    #[inline]
+    fn index_coords_anywhere(&self, p: DVec3) -> Option<DVec3> {
+        let local = self.to_local * (p - self.domain.origin);
+        Some(local / self.domain.cell - DVec3::splat(0.5))
+    }
+
+    #[inline]
+    fn coords<const EXTRAPOLATE: bool>(&self, p: DVec3) -> Option<DVec3> {
+        if EXTRAPOLATE {
+            self.index_coords_anywhere(p)
+        } else {
+            self.index_coords(p)
+        }
+    }
+
+    fn sample_block<const W: usize, const EXTRAPOLATE: bool>(
         &self,
         interp: Interp,
         xs: &[f64],
@@ -222,7 +240,7 @@ impl Cache {
         let mut unused = [[0.0; 3]; W];
         for i in 0..n {
             let mut value = [0.0; W];
-            match self.index_coords(DVec3::new(xs[i], ys[i], zs[i])) {
+            match self.coords::<EXTRAPOLATE>(DVec3::new(xs[i], ys[i], zs[i])) {
                 Some(u) => self.read_point::<W, false>(interp, u, &mut value, &mut unused),
                 None => value.copy_from_slice(&self.background),
             }
@@ -232,7 +250,7 @@ impl Cache {
         }
     }
 
-    fn gradient_block<const W: usize>(
+    fn gradient_block<const W: usize, const EXTRAPOLATE: bool>(
         &self,
         interp: Interp,
         xs: &[f64],
@@ -248,7 +266,7 @@ impl Cache {
         for i in 0..n {
             let mut value = [0.0; W];
             let mut gradient = [[0.0; 3]; W];
-            if let Some(u) = self.index_coords(DVec3::new(xs[i], ys[i], zs[i])) {
+            if let Some(u) = self.coords::<EXTRAPOLATE>(DVec3::new(xs[i], ys[i], zs[i])) {
                 self.read_point::<W, true>(interp, u, &mut value, &mut gradient);
             }
             for (c, g) in gradient.iter().enumerate() {
@@ -258,6 +276,99 @@ impl Cache {
                 }
             }
         }
+    }
+
+    /// Interpolated values at world points, extrapolating linearly outside the domain box
+    /// from the two outermost cells along each axis (instead of reading the background).
+    pub fn sample_extrapolated(
+        &self,
+        interp: Interp,
+        xs: &[f64],
+        ys: &[f64],
+        zs: &[f64],
+        out: &mut [f64],
+    ) {
+        match self.width {
+            1 => self.sample_block::<1, true>(interp, xs, ys, zs, out),
+            3 => self.sample_block::<3, true>(interp, xs, ys, zs, out),
+            _ => self.sample_block::<MAX_WIDTH, true>(interp, xs, ys, zs, out),
+        }
+    }
+
+    /// The exact derivative of [`Cache::sample_extrapolated`].
+    pub fn gradient_extrapolated(
+        &self,
+        interp: Interp,
+        xs: &[f64],
+        ys: &[f64],
+        zs: &[f64],
+        out: &mut [f64],
+    ) {
+        match self.width {
+            1 => self.gradient_block::<1, true>(interp, xs, ys, zs, out),
+            3 => self.gradient_block::<3, true>(interp, xs, ys, zs, out),
+            _ => self.gradient_block::<MAX_WIDTH, true>(interp, xs, ys, zs, out),
+        }
+    }
+
+    /// A conservative range of [`Cache::sample_extrapolated`] over `region`. Inside the box it
+    /// is the ordinary range; `d` cells beyond the outermost centre along an axis, linear
+    /// weights `(1 + d, −d)` sum to `1 + 2d` in absolute value, so the samples' range is
+    /// widened by the product of those sums.
+    pub fn range_extrapolated(&self, region: &Aabb) -> Vec<(f64, f64)> {
+        if region.is_empty() {
+            return self.range(region);
+        }
+        if !region.is_finite() {
+            return vec![(f64::NEG_INFINITY, f64::INFINITY); self.width];
+        }
+        let mut lo = DVec3::splat(f64::INFINITY);
+        let mut hi = DVec3::splat(f64::NEG_INFINITY);
+        for n in 0..8 {
+            let pick = BVec3::new(n & 1 != 0, n & 2 != 0, n & 4 != 0);
+            let corner = DVec3::select(pick, region.max, region.min);
+            let u = self.to_local * (corner - self.domain.origin) / self.domain.cell
+                - DVec3::splat(0.5);
+            lo = lo.min(u);
+            hi = hi.max(u);
+        }
+        let mut widen = 1.0;
+        for a in 0..3 {
+            let last = (self.shape.cells[a] - 1) as f64;
+            let beyond = (-lo[a]).max(hi[a] - last).max(0.0);
+            if self.shape.cells[a] > 1 {
+                widen *= 1.0 + 2.0 * beyond;
+            }
+        }
+        // The cells that feed the extrapolation are those nearest the region inside the box.
+        let inside = |u: f64, a: usize| {
+            (u.clamp(-0.5, self.shape.cells[a] as f64 - 0.5) + 0.5) * self.domain.cell[a]
+        };
+        let corner_lo = DVec3::new(inside(lo.x, 0), inside(lo.y, 1), inside(lo.z, 2));
+        let corner_hi = DVec3::new(inside(hi.x, 0), inside(hi.y, 1), inside(hi.z, 2));
+        let mut clamped = Aabb::new(DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+        for n in 0..8 {
+            let pick = BVec3::new(n & 1 != 0, n & 2 != 0, n & 4 != 0);
+            let local = DVec3::select(pick, corner_hi, corner_lo);
+            let world = self.domain.local_to_world(local);
+            clamped.min = clamped.min.min(world);
+            clamped.max = clamped.max.max(world);
+        }
+        // A touch inside, so the clamped box never reads as leaving the domain.
+        let shrink = (clamped.size() * 1e-9).max(DVec3::ZERO);
+        let clamped = Aabb::new(clamped.min + shrink, clamped.max - shrink);
+        self.range(&clamped)
+            .into_iter()
+            .map(|(low, high)| {
+                if widen == 1.0 || low == high {
+                    (low, high)
+                } else {
+                    let middle = 0.5 * (low + high);
+                    let radius = 0.5 * (high - low) * widen * (1.0 + 1e-12);
+                    (middle - radius, middle + radius)
+                }
+            })
+            .collect()
     }
 
     /// Per axis: the index-space interval of `region` clamped to the domain box, or `None`
@@ -313,17 +424,17 @@ impl GridSource for Cache {
 
     fn sample(&self, interp: Interp, xs: &[f64], ys: &[f64], zs: &[f64], out: &mut [f64]) {
         match self.width {
-            1 => self.sample_block::<1>(interp, xs, ys, zs, out),
-            3 => self.sample_block::<3>(interp, xs, ys, zs, out),
-            _ => self.sample_block::<MAX_WIDTH>(interp, xs, ys, zs, out),
+            1 => self.sample_block::<1, false>(interp, xs, ys, zs, out),
+            3 => self.sample_block::<3, false>(interp, xs, ys, zs, out),
+            _ => self.sample_block::<MAX_WIDTH, false>(interp, xs, ys, zs, out),
         }
     }
 
     fn sample_gradient(&self, interp: Interp, xs: &[f64], ys: &[f64], zs: &[f64], out: &mut [f64]) {
         match self.width {
-            1 => self.gradient_block::<1>(interp, xs, ys, zs, out),
-            3 => self.gradient_block::<3>(interp, xs, ys, zs, out),
-            _ => self.gradient_block::<MAX_WIDTH>(interp, xs, ys, zs, out),
+            1 => self.gradient_block::<1, false>(interp, xs, ys, zs, out),
+            3 => self.gradient_block::<3, false>(interp, xs, ys, zs, out),
+            _ => self.gradient_block::<MAX_WIDTH, false>(interp, xs, ys, zs, out),
         }
     }
 
@@ -337,6 +448,17 @@ impl GridSource for Cache {
 
     fn cell_size(&self) -> DVec3 {
         self.domain.cell
+    }
+
+    fn lattice(&self) -> Option<Lattice> {
+        Some(self.domain.lattice())
+    }
+
+    fn pending_inputs(&self) -> Vec<Arc<dyn GridSource>> {
+        match lock(&self.source).as_ref() {
+            Some(source) => source.grids(),
+            None => Vec::new(),
+        }
     }
 
     /// Fills the bricks whose cells the interpolant reads inside `region`, on the calling

@@ -123,18 +123,33 @@ pub fn register(r: &mut Registry) {
     r.add(
         "warping",
         &[
-            "advect(scalarfield f, vectorfield u, scalarfield dt, int order?) -> scalarfield",
-            "advect(vectorfield f, vectorfield u, scalarfield dt, int order?) -> vectorfield",
-            "advect(matrixfield f, vectorfield u, scalarfield dt, int order?) -> matrixfield",
+            "advect(scalarfield f, vectorfield u, scalarfield dt, int order?, string scheme?) -> scalarfield",
+            "advect(vectorfield f, vectorfield u, scalarfield dt, int order?, string scheme?) -> vectorfield",
+            "advect(matrixfield f, vectorfield u, scalarfield dt, int order?, string scheme?) -> matrixfield",
         ],
-        "f carried along velocity u for time dt: a semi-Lagrangian back-trace (order 1, or Runge-Kutta 2, 3, 4)",
+        "f carried along velocity u for time dt: a semi-Lagrangian back-trace (order 1, or Runge-Kutta 2, 3, 4); \
+         scheme = \"maccormack\" or \"bfecc\" corrects the back-trace's error (clamped where f is a grid read)",
         |_, a| {
             let order = a.opt_int(3)?.unwrap_or(1);
             if !(1..=4).contains(&order) {
                 return Err(Failure::new(format!("advect order must be 1, 2, 3 or 4, found {order}")));
             }
+            let scheme = match a.opt(4) {
+                Some(v) => field::Scheme::named(v.as_str()?)?,
+                None => field::Scheme::SemiLagrangian,
+            };
             let (f, u, dt) = (a.get(0)?.as_field()?, a.get(1)?.as_field()?, a.get(2)?.as_field()?);
-            Ok(Value::Field(field::advect(&f, &u, &dt, order as u32)?))
+            if let Some(FieldValue::Scalar(step)) = dt.as_constant()
+                && !step.is_finite()
+            {
+                return Err(Failure::new(format!("the time step of advect must be finite, found {step}")));
+            }
+            if let Some(FieldValue::Vector(v)) = u.as_constant()
+                && !v.is_finite()
+            {
+                return Err(Failure::new(format!("the velocity of advect must be finite, found {v}")));
+            }
+            Ok(Value::Field(field::advect_with(&f, &u, &dt, order as u32, scheme)?))
         },
     );
     r.add(

@@ -28,7 +28,7 @@ pub fn register(r: &mut Registry) {
          over the level set's inside at 128 cells along its longest side)",
         |_, a| {
             let ls = a.get(0)?.as_field()?;
-            let sampler = CompiledField::new(&ls);
+            let sampler = CompiledField::prepared(&ls)?;
             let domain = match a.opt(1) {
                 Some(Value::Domain(d)) => {
                     if d.resolution.is_none() {
@@ -36,7 +36,7 @@ pub fn register(r: &mut Registry) {
                     }
                     (**d).clone()
                 }
-                _ => geometry::default_mesh_domain(&CompiledField::new(&ls.mask()?))?,
+                _ => geometry::default_mesh_domain(&CompiledField::prepared(&ls.mask()?)?)?,
             };
             Ok(Value::Shape(Rc::new(geometry::marching_cubes(
                 &sampler, &domain,

@@ -12,6 +12,7 @@ use crate::diagnostic::{self, Diagnostic, Stage};
 use crate::failure::{Failure, Outcome};
 use crate::field::{CompiledField, Field};
 use crate::grid::cache::Cache;
+use crate::grid::cache::extrapolated::Extrapolated;
 use crate::grid::domain::Domain;
 use crate::grid::vdb_cache;
 use crate::interp::Interpreter;
@@ -97,12 +98,13 @@ pub fn register(r: &mut Registry) {
     r.add(
         "caches",
         &[
-            "cacheread(scalarcache c, string interp?, string derivative?) -> scalarfield",
-            "cacheread(vectorcache c, string interp?, string derivative?) -> vectorfield",
-            "cacheread(matrixcache c, string interp?, string derivative?) -> matrixfield",
+            "cacheread(scalarcache c, string interp?, string derivative?, string outside?) -> scalarfield",
+            "cacheread(vectorcache c, string interp?, string derivative?, string outside?) -> vectorfield",
+            "cacheread(matrixcache c, string interp?, string derivative?, string outside?) -> matrixfield",
         ],
         "the field interpolating c's samples: interp \"linear\" (default) or \"cubic\"; \
-         grad of it is the interpolant's derivative, or derivative = \"central\" differences",
+         grad of it is the interpolant's derivative, or derivative = \"central\" differences; \
+         outside = \"background\" (default) or \"extrapolate\" (linear, for SELMA maps)",
         cacheread,
     );
     r.add(
@@ -115,6 +117,7 @@ pub fn register(r: &mut Registry) {
         "computes every brick of c now (for timing, or before saving)",
         |interp, a| {
             let cache = written(&a)?;
+            cache.prepare()?;
             cache.fill_all();
             report_now(interp, &cache);
             Ok(Value::Void)
@@ -255,10 +258,26 @@ fn cacheread(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
             }
         },
     };
+    let extrapolate = match a.opt(3) {
+        None => false,
+        Some(v) => match v.as_str()? {
+            "background" => false,
+            "extrapolate" => true,
+            other => {
+                return Err(Failure::new(format!(
+                    "outside must be \"background\" or \"extrapolate\", found \"{other}\""
+                )));
+            }
+        },
+    };
     let state = var.state.borrow().clone();
     let field = match state {
         Some(cache) => {
-            let grid: Arc<dyn GridSource> = cache;
+            let grid: Arc<dyn GridSource> = if extrapolate {
+                Arc::new(Extrapolated::new(cache))
+            } else {
+                cache
+            };
             Field::from_grid(grid, interp_kind, derivative)?
         }
         None => {

@@ -9,6 +9,7 @@ pub mod grids;
 mod math;
 mod modeling;
 mod rendering;
+mod simulation;
 
 use super::registry::Registry;
 
@@ -20,4 +21,5 @@ pub fn register_all(r: &mut Registry) {
     modeling::register(r);
     rendering::register(r);
     geometry::register(r);
+    simulation::register(r);
 }

@@ -112,7 +112,7 @@ pub fn register(r: &mut Registry) {
         &["transmissivity(scalarfield density, light l, domain d, float kappa) -> scalarfield"],
         "the fraction of l's light reaching each point through density (1 outside d), sampled at d's cells",
         |_, a| {
-            let density = CompiledField::new(&a.get(0)?.as_field()?);
+            let density = CompiledField::prepared(&a.get(0)?.as_field()?)?;
             let Value::Light(light) = a.get(1)? else { return Err(Failure::new("expected a light")) };
             let Value::Domain(domain) = a.get(2)? else { return Err(Failure::new("expected a domain")) };
             if domain.resolution.is_none() {
@@ -138,7 +138,7 @@ fn opt_vector(a: &Args, i: usize) -> Outcome<Option<DVec3>> {
 
 fn opt_field(a: &Args, i: usize) -> Outcome<Option<CompiledField>> {
     Ok(match a.opt(i) {
-        Some(v) => Some(CompiledField::new(&v.as_field()?)),
+        Some(v) => Some(CompiledField::prepared(&v.as_field()?)?),
         None => None,
     })
 }
@@ -157,7 +157,7 @@ fn count(a: &Args, i: usize, what: &str, default: usize) -> Outcome<usize> {
 
 fn run_render(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
     let path = a.string(0)?.to_string();
-    let density = CompiledField::new(&a.get(1)?.as_field()?);
+    let density = CompiledField::prepared(&a.get(1)?.as_field()?)?;
     let (color, emission, holdout) = (
         opt_field(&a, COLOR)?,
         opt_field(&a, EMISSION)?,

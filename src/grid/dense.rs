@@ -1,0 +1,340 @@
+//! Dense grids in double precision: the storage of whole-grid solves (`fftdivfree`).
+//!
+//! A solve produces every cell at once, so there is nothing to gain from bricks filled on
+//! demand; what matters is that reading the result back costs little and loses nothing. The
+//! one key decision: values are kept in `f64`, not the `f32` of caches, so a projected velocity
+//! read back at its cell centres is the projection's output to the last bit, and projecting it
+//! again changes it only by round-off (the idempotence that `fftdivfree` promises). Reads use
+//! the same stencils as caches (`interp`), so linear and cubic reads, their exact derivatives
+//! and the linear border behave identically; outside the box a read gives the background.
+//! Ranges come from a table of per-8³-block extremes made once, widened by the stencil's
+//! weight bound like a cache's.
+
+use crate::grid::domain::Domain;
+use crate::grid::interp::{AxisStencil, BORDER_WEIGHT_BOUND, CUBIC_WEIGHT_BOUND, axis_stencil};
+use crate::sample::{Aabb, Interp};
+use glam::{BVec3, DMat3, DVec3};
+
+/// Cells along each edge of a block of the range table.
+const BLOCK: usize = 8;
+
+/// Values at the cell centres of a domain, `width` components each.
+pub struct DenseGrid {
+    domain: Domain,
+    to_local: DMat3,
+    cells: [usize; 3],
+    width: usize,
+    /// Component `c` of cell `(i, j, k)` at `(i + nx (j + ny k)) * width + c`.
+    values: Vec<f64>,
+    background: Vec<f64>,
+    blocks: [usize; 3],
+    /// Per block and component: the smallest and largest value; NaN-free by construction of
+    /// the callers (solves refuse non-finite input).
+    block_ranges: Vec<(f64, f64)>,
+}
+
+impl DenseGrid {
+    /// A grid over `domain` (which has cells) holding `values`, interleaved as documented on
+    /// the field, reading `background` outside the box.
+    pub fn new(domain: Domain, width: usize, values: Vec<f64>, background: Vec<f64>) -> DenseGrid {
+        let cells = domain.resolution.unwrap_or([1, 1, 1]);
+        debug_assert_eq!(values.len(), cells[0] * cells[1] * cells[2] * width);
+        let blocks = cells.map(|n| n.div_ceil(BLOCK));
+        let mut grid = DenseGrid {
+            to_local: domain.rotation.transpose(),
+            domain,
+            cells,
+            width,
+            values,
+            background,
+            blocks,
+            block_ranges: Vec::new(),
+        };
+        grid.block_ranges = grid.compute_block_ranges();
+        grid
+    }
+
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    pub fn domain(&self) -> &Domain {
+        &self.domain
+    }
+
+    pub fn background(&self) -> &[f64] {
+        &self.background
+    }
+
+    /// Bytes held by the values and the range table.
+    pub fn bytes(&self) -> u64 {
+        ((self.values.len() + 2 * self.block_ranges.len()) * size_of::<f64>()) as u64
+    }
+
+    /// The stored value of cell `(i, j, k)`.
+    pub fn cell(&self, i: usize, j: usize, k: usize) -> &[f64] {
+        let at = (i + self.cells[0] * (j + self.cells[1] * k)) * self.width;
+        &self.values[at..at + self.width]
+    }
+
+    fn compute_block_ranges(&self) -> Vec<(f64, f64)> {
+        let [bx, by, bz] = self.blocks;
+        let mut ranges = vec![(f64::INFINITY, f64::NEG_INFINITY); bx * by * bz * self.width];
+        for k in 0..self.cells[2] {
+            for j in 0..self.cells[1] {
+                for i in 0..self.cells[0] {
+                    let block = i / BLOCK + bx * (j / BLOCK + by * (k / BLOCK));
+                    for (c, &v) in self.cell(i, j, k).iter().enumerate() {
+                        let r = &mut ranges[block * self.width + c];
+                        r.0 = r.0.min(v);
+                        r.1 = r.1.max(v);
+                    }
+                }
+            }
+        }
+        ranges
+    }
+
+    /// Continuous cell-index coordinates of a world point inside the box.
+    #[inline]
+    fn index_coords(&self, p: DVec3) -> Option<DVec3> {
+        let local = self.to_local * (p - self.domain.origin);
+        let inside = local.cmpge(DVec3::ZERO).all() && local.cmple(self.domain.lengths).all();
+        inside.then(|| local / self.domain.cell - DVec3::splat(0.5))
+    }
+
+    #[inline(always)]
+    fn read_point<const W: usize, const GRADIENT: bool>(
+        &self,
+        interp: Interp,
+        u: DVec3,
+        value: &mut [f64; W],
+        gradient: &mut [[f64; 3]; W],
+    ) {
+        let axes: [AxisStencil; 3] =
+            std::array::from_fn(|a| axis_stencil(interp, u[a], self.cells[a]));
+        let [sx, sy, sz] = &axes;
+        let (nx, ny) = (self.cells[0], self.cells[1]);
+        for kz in 0..sz.len {
+            for ky in 0..sy.len {
+                let weight_yz = sy.weight[ky] * sz.weight[kz];
+                let slope_y = sy.slope[ky] * sz.weight[kz];
+                let slope_z = sy.weight[ky] * sz.slope[kz];
+                let row = sx.start + nx * (sy.start + ky + ny * (sz.start + kz));
+                for kx in 0..sx.len {
+                    let at = (row + kx) * W;
+                    let weight = sx.weight[kx] * weight_yz;
+                    for c in 0..W {
+                        let sample = self.values[at + c];
+                        value[c] += weight * sample;
+                        if GRADIENT {
+                            gradient[c][0] += sx.slope[kx] * weight_yz * sample;
+                            gradient[c][1] += sx.weight[kx] * slope_y * sample;
+                            gradient[c][2] += sx.weight[kx] * slope_z * sample;
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    fn sample_block<const W: usize>(
+        &self,
+        interp: Interp,
+        xs: &[f64],
+        ys: &[f64],
+        zs: &[f64],
+        out: &mut [f64],
+    ) {
+        let n = xs.len();
+        let mut unused = [[0.0; 3]; W];
+        for i in 0..n {
+            let mut value = [0.0; W];
+            match self.index_coords(DVec3::new(xs[i], ys[i], zs[i])) {
+                Some(u) => self.read_point::<W, false>(interp, u, &mut value, &mut unused),
+                None => value.copy_from_slice(&self.background),
+            }
+            for c in 0..W {
+                out[c * n + i] = value[c];
+            }
+        }
+    }
+
+    fn gradient_block<const W: usize>(
+        &self,
+        interp: Interp,
+        xs: &[f64],
+        ys: &[f64],
+        zs: &[f64],
+        out: &mut [f64],
+    ) {
+        let n = xs.len();
+        let rotation = self.domain.rotation;
+        let inverse_cell = self.domain.cell.recip();
+        for i in 0..n {
+            let mut value = [0.0; W];
+            let mut gradient = [[0.0; 3]; W];
+            if let Some(u) = self.index_coords(DVec3::new(xs[i], ys[i], zs[i])) {
+                self.read_point::<W, true>(interp, u, &mut value, &mut gradient);
+            }
+            for (c, g) in gradient.iter().enumerate() {
+                // The chain rule through the domain's placement: d u_a / d x_j = R[j][a] / h_a.
+                let world = rotation * (DVec3::from_array(*g) * inverse_cell);
+                for j in 0..3 {
+                    out[(c * 3 + j) * n + i] = world[j];
+                }
+            }
+        }
+    }
+
+    /// Interpolated values at world points, component-major (`out[c * n + i]`).
+    pub fn sample(&self, interp: Interp, xs: &[f64], ys: &[f64], zs: &[f64], out: &mut [f64]) {
+        match self.width {
+            1 => self.sample_block::<1>(interp, xs, ys, zs, out),
+            3 => self.sample_block::<3>(interp, xs, ys, zs, out),
+            _ => self.sample_block::<9>(interp, xs, ys, zs, out),
+        }
+    }
+
+    /// Derivatives of the interpolant, `out[(c * 3 + j) * n + i]`; zero outside the box.
+    pub fn sample_gradient(
+        &self,
+        interp: Interp,
+        xs: &[f64],
+        ys: &[f64],
+        zs: &[f64],
+        out: &mut [f64],
+    ) {
+        match self.width {
+            1 => self.gradient_block::<1>(interp, xs, ys, zs, out),
+            3 => self.gradient_block::<3>(interp, xs, ys, zs, out),
+            _ => self.gradient_block::<9>(interp, xs, ys, zs, out),
+        }
+    }
+
+    /// A conservative range per component of what the interpolant reaches in `region`.
+    pub fn range(&self, region: &Aabb) -> Vec<(f64, f64)> {
+        let background: Vec<(f64, f64)> = self.background.iter().map(|&b| (b, b)).collect();
+        if region.is_empty() {
+            return background;
+        }
+        let cells = self.cells.map(|n| n as f64);
+        let (mut lo, mut hi, mut leaves) = (
+            DVec3::splat(f64::INFINITY),
+            DVec3::splat(f64::NEG_INFINITY),
+            false,
+        );
+        if region.is_finite() {
+            for n in 0..8 {
+                let pick = BVec3::new(n & 1 != 0, n & 2 != 0, n & 4 != 0);
+                let corner = DVec3::select(pick, region.max, region.min);
+                leaves |= self.index_coords(corner).is_none();
+                let u = self.to_local * (corner - self.domain.origin) / self.domain.cell
+                    - DVec3::splat(0.5);
+                lo = lo.min(u);
+                hi = hi.max(u);
+            }
+        } else {
+            (lo, hi, leaves) = (
+                DVec3::splat(f64::NEG_INFINITY),
+                DVec3::splat(f64::INFINITY),
+                true,
+            );
+        }
+        let mut first = [0usize; 3];
+        let mut last = [0usize; 3];
+        let mut spread = 1.0;
+        for a in 0..3 {
+            let low = lo[a].max(-0.5);
+            let high = hi[a].min(cells[a] - 0.5);
+            if low.partial_cmp(&high).is_none_or(|o| o.is_gt()) {
+                return background;
+            }
+            // A cubic stencil reads one cell below floor(u) and two above.
+            let first_cell = (low.floor() - 1.0).max(0.0) as usize;
+            let last_cell = ((high.floor() + 2.0).max(0.0) as usize).min(self.cells[a] - 1);
+            first[a] = first_cell / BLOCK;
+            last[a] = last_cell / BLOCK;
+            spread *= if self.cells[a] == 1 {
+                1.0
+            } else if low >= 0.0 && high <= cells[a] - 1.0 {
+                CUBIC_WEIGHT_BOUND
+            } else {
+                BORDER_WEIGHT_BOUND
+            };
+        }
+        let mut samples = vec![(f64::INFINITY, f64::NEG_INFINITY); self.width];
+        for bz in first[2]..=last[2] {
+            for by in first[1]..=last[1] {
+                for bx in first[0]..=last[0] {
+                    let block = bx + self.blocks[0] * (by + self.blocks[1] * bz);
+                    for (c, s) in samples.iter_mut().enumerate() {
+                        let r = self.block_ranges[block * self.width + c];
+                        s.0 = s.0.min(r.0);
+                        s.1 = s.1.max(r.1);
+                    }
+                }
+            }
+        }
+        samples
+            .into_iter()
+            .zip(&self.background)
+            .map(|((low, high), &b)| {
+                let (low, high) = if low == high {
+                    (low, high)
+                } else {
+                    let middle = 0.5 * (low + high);
+                    let rounding = 128.0 * f64::EPSILON * spread * low.abs().max(high.abs());
+                    let radius = 0.5 * (high - low) * spread + rounding;
+                    (middle - radius, middle + radius)
+                };
+                if leaves {
+                    (low.min(b), high.max(b))
+                } else {
+                    (low, high)
+                }
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reads_a_linear_field_exactly_and_its_gradient() {
+        let domain = Domain::with_cells(
+            DVec3::new(-1.0, 0.5, 2.0),
+            DVec3::new(2.0, 1.0, 1.5),
+            DVec3::new(0.2, -0.4, 0.3),
+            0.125,
+            0.125,
+        )
+        .unwrap();
+        let [nx, ny, nz] = domain.resolution.unwrap();
+        let f = |p: DVec3| 0.5 + p.dot(DVec3::new(1.5, -2.0, 0.25));
+        let mut values = Vec::new();
+        for k in 0..nz {
+            for j in 0..ny {
+                for i in 0..nx {
+                    values.push(f(domain.cell_center(i, j, k)));
+                }
+            }
+        }
+        let grid = DenseGrid::new(domain.clone(), 1, values, vec![0.0]);
+        let p = domain.local_to_world(DVec3::new(0.73, 0.41, 1.1));
+        for interp in [Interp::Linear, Interp::Cubic] {
+            let mut out = [0.0];
+            grid.sample(interp, &[p.x], &[p.y], &[p.z], &mut out);
+            assert!((out[0] - f(p)).abs() < 1e-12, "{interp:?}");
+            let mut g = [0.0; 3];
+            grid.sample_gradient(interp, &[p.x], &[p.y], &[p.z], &mut g);
+            assert!((DVec3::from_array(g) - DVec3::new(1.5, -2.0, 0.25)).length() < 1e-12);
+        }
+        let range = grid.range(&Aabb::new(p - 0.05, p + 0.05));
+        assert!(range[0].0 <= f(p) && f(p) <= range[0].1);
+        let far = grid.range(&Aabb::new(DVec3::splat(50.0), DVec3::splat(51.0)));
+        assert_eq!(far, vec![(0.0, 0.0)]);
+    }
+}

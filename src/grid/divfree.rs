@@ -1,0 +1,310 @@
+//! `fftdivfree`: a velocity sampled on a domain's cells with its divergent part removed, as a
+//! grid that is solved only when something reads it.
+//!
+//! What "divergence-free" means here: the **central-difference** divergence of the stored
+//! samples, `Σ_a (u_a[i + e_a] − u_a[i − e_a]) / 2h_a` along the domain's own axes, wrapping
+//! around (the grid is one period of a periodic field), vanishes to round-off. The projection
+//! removes, in Fourier space, each mode's component along that operator's own wave vector
+//! `sin(k_a h_a) / h_a`, with the Nyquist modes (invisible to central differences) kept exactly
+//! as they are, so projecting twice changes nothing. Reads of the result use the same central
+//! differences for `grad`, `div` and `curl`, so `div(fftdivfree(U, d))` is zero at every cell
+//! centre away from the border (at the border the difference reaches the background outside,
+//! not the periodic image).
+//!
+//! The one key decision is laziness with parallelism: making the node samples nothing. The
+//! solve runs when an output (through `grid::demand`) or a read first needs it: the input is
+//! sampled at every cell centre in `f64`, rotated into the domain's frame, projected, rotated
+//! back to world axes and stored in `f64` (`dense`). Then the input field is released, so the
+//! previous frame's velocity it read can be freed: memory stays flat over a simulation. A
+//! solve first reached from inside another parallel evaluation runs on a thread pool of its
+//! own, so it never waits on tasks that could need the grid it is computing.
+
+use crate::failure::{Failure, Outcome};
+use crate::grid::dense::DenseGrid;
+use crate::grid::domain::Domain;
+use crate::grid::fft::{
+    DivergenceOperator, PROJECTION_BYTES_PER_CELL, check_working_memory,
+    project_divergence_free_with,
+};
+use crate::grid::profile::{self, GridStats};
+use crate::sample::{Aabb, BLOCK, FieldSampler, GridSource, Interp, Lattice};
+use glam::{DMat3, DVec3};
+use rayon::prelude::*;
+use std::sync::{Arc, Mutex, OnceLock};
+use std::time::Instant;
+
+/// A divergence-free projection of a vectorfield over a domain's cells.
+pub struct DivergenceFree {
+    domain: Domain,
+    source: Mutex<Option<Arc<dyn FieldSampler>>>,
+    solved: OnceLock<Result<DenseGrid, Failure>>,
+    identity: u64,
+    label: String,
+    profile: Arc<GridStats>,
+}
+
+/// Bricks of 8³ cells in a domain, the unit in which `--profile` counts grid work.
+fn bricks_of(cells: [usize; 3]) -> u64 {
+    cells.iter().map(|&n| n.div_ceil(8) as u64).product()
+}
+
+impl DivergenceFree {
+    /// The projection of `source` (a vectorfield) over `domain`, labelled `label` in profiles
+    /// and messages. Checks the domain and the memory the solve will need now, before any work.
+    pub fn new(
+        domain: Domain,
+        source: Arc<dyn FieldSampler>,
+        label: String,
+    ) -> Outcome<DivergenceFree> {
+        if source.width() != 3 {
+            return Err(Failure::new(format!(
+                "fftdivfree needs a vectorfield, found a field of {} component(s)",
+                source.width()
+            )));
+        }
+        let Some(cells) = domain.resolution else {
+            return Err(
+                Failure::new("fftdivfree needs a domain with cells").with_help(
+                    "give the domain a cell size: domain d(origin, lengths, orientation, cell)",
+                ),
+            );
+        };
+        let count = cells.iter().product::<usize>();
+        // Stored f64 result, the f64 samples being projected, and the transforms' spectra.
+        check_working_memory(count, 2 * 3 * 8 + PROJECTION_BYTES_PER_CELL, "fftdivfree")?;
+        let profile = profile::register("fftdivfree", &label);
+        profile.add_instance(bricks_of(cells));
+        Ok(DivergenceFree {
+            domain,
+            source: Mutex::new(Some(source)),
+            solved: OnceLock::new(),
+            identity: crate::grid::next_identity(),
+            label,
+            profile,
+        })
+    }
+
+    /// Has the solve run (successfully or not)?
+    pub fn is_solved(&self) -> bool {
+        self.solved.get().is_some()
+    }
+
+    fn solved(&self) -> &Result<DenseGrid, Failure> {
+        self.solved.get_or_init(|| {
+            if rayon::current_thread_index().is_some() {
+                // Inside a parallel evaluation: solve on a pool of our own, from a thread
+                // that is no worker of the outer pool, so waiting never steals outer tasks.
+                let threads = rayon::current_num_threads();
+                std::thread::scope(|scope| {
+                    scope
+                        .spawn(|| {
+                            match rayon::ThreadPoolBuilder::new().num_threads(threads).build() {
+                                Ok(pool) => pool.install(|| self.run()),
+                                Err(_) => self.run(),
+                            }
+                        })
+                        .join()
+                        .unwrap_or_else(|_| Err(Failure::new("the fftdivfree solve failed")))
+                })
+            } else {
+                self.run()
+            }
+        })
+    }
+
+    fn source(&self) -> Option<Arc<dyn FieldSampler>> {
+        self.source
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner())
+            .clone()
+    }
+
+    fn run(&self) -> Result<DenseGrid, Failure> {
+        let started = Instant::now();
+        let Some(source) = self.source() else {
+            return Err(Failure::new("fftdivfree lost its input before solving"));
+        };
+        let result = self.project(source.as_ref());
+        // The input (and the grids it reads, such as the previous frame's velocity) is no
+        // longer needed, whatever the outcome.
+        *self
+            .source
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner()) = None;
+        drop(source);
+        if let Ok(grid) = &result {
+            self.profile
+                .add_work(started.elapsed().as_nanos() as u64, grid.bytes());
+            let cells = self.domain.resolution.unwrap_or([1, 1, 1]);
+            self.profile.add_resolved(bricks_of(cells), 0);
+        }
+        result
+    }
+
+    /// Samples, projects and stores.
+    fn project(&self, source: &dyn FieldSampler) -> Result<DenseGrid, Failure> {
+        let domain = &self.domain;
+        let cells = domain.resolution.unwrap_or([1, 1, 1]);
+        let [nx, ny, nz] = cells;
+        let n = nx * ny * nz;
+        // Sample row by row (x fastest), in blocks of at most BLOCK points: the same blocks on
+        // any thread count, so the same values.
+        let mut interleaved = vec![0.0f64; 3 * n];
+        interleaved
+            .par_chunks_mut(3 * nx)
+            .enumerate()
+            .for_each_init(
+                || {
+                    (
+                        source.evaluator(),
+                        [vec![0.0; BLOCK], vec![0.0; BLOCK], vec![0.0; BLOCK]],
+                        vec![0.0; 3 * BLOCK],
+                    )
+                },
+                |(evaluator, [xs, ys, zs], out), (row, values)| {
+                    let (j, k) = (row % ny, row / ny);
+                    let mut start = 0;
+                    while start < nx {
+                        let len = (nx - start).min(BLOCK);
+                        for t in 0..len {
+                            let p = domain.cell_center(start + t, j, k);
+                            (xs[t], ys[t], zs[t]) = (p.x, p.y, p.z);
+                        }
+                        let block = &mut out[..3 * len];
+                        evaluator.eval_f64(&xs[..len], &ys[..len], &zs[..len], block);
+                        for t in 0..len {
+                            for c in 0..3 {
+                                values[3 * (start + t) + c] = block[c * len + t];
+                            }
+                        }
+                        start += len;
+                    }
+                },
+            );
+        if let Some(at) = interleaved.iter().position(|v| !v.is_finite()) {
+            let cell = at / 3;
+            let (i, j, k) = (cell % nx, cell / nx % ny, cell / (nx * ny));
+            let p = domain.cell_center(i, j, k);
+            return Err(Failure::new(format!(
+                "the velocity given to {} is not finite ({}) at cell ({i}, {j}, {k}), position ({}, {}, {})",
+                self.label, interleaved[at], p.x, p.y, p.z
+            ))
+            .with_help("a NaN or infinite velocity usually comes from a division by zero or a NaN time step upstream"));
+        }
+        // Into the domain's frame, component-major, for the projection.
+        let to_local = domain.rotation.transpose();
+        let rotated = domain.rotation != DMat3::IDENTITY;
+        let mut planes = vec![0.0f64; 3 * n];
+        {
+            let (px, rest) = planes.split_at_mut(n);
+            let (py, pz) = rest.split_at_mut(n);
+            px.par_iter_mut()
+                .zip(py.par_iter_mut())
+                .zip(pz.par_iter_mut())
+                .enumerate()
+                .for_each(|(cell, ((x, y), z))| {
+                    let v = DVec3::from_slice(&interleaved[3 * cell..3 * cell + 3]);
+                    let v = if rotated { to_local * v } else { v };
+                    (*x, *y, *z) = (v.x, v.y, v.z);
+                });
+        }
+        project_divergence_free_with(
+            cells,
+            domain.cell,
+            &mut planes,
+            DivergenceOperator::CentralDifference,
+        )?;
+        // Back to world axes, interleaved for reading.
+        interleaved
+            .par_chunks_mut(3)
+            .enumerate()
+            .for_each(|(cell, out)| {
+                let v = DVec3::new(planes[cell], planes[n + cell], planes[2 * n + cell]);
+                let v = if rotated { domain.rotation * v } else { v };
+                out.copy_from_slice(&v.to_array());
+            });
+        drop(planes);
+        Ok(DenseGrid::new(domain.clone(), 3, interleaved, vec![0.0; 3]))
+    }
+}
+
+impl Drop for DivergenceFree {
+    fn drop(&mut self) {
+        if let Some(Ok(grid)) = self.solved.get() {
+            self.profile.release(grid.bytes());
+        }
+    }
+}
+
+impl std::fmt::Debug for DivergenceFree {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("DivergenceFree")
+            .field("label", &self.label)
+            .field("solved", &self.is_solved())
+            .finish()
+    }
+}
+
+impl GridSource for DivergenceFree {
+    fn width(&self) -> usize {
+        3
+    }
+
+    fn identity(&self) -> u64 {
+        self.identity
+    }
+
+    fn label(&self) -> String {
+        self.label.clone()
+    }
+
+    fn sample(&self, interp: Interp, xs: &[f64], ys: &[f64], zs: &[f64], out: &mut [f64]) {
+        match self.solved() {
+            Ok(grid) => grid.sample(interp, xs, ys, zs, out),
+            // The failure is reported by the output that asked for the solve; the values
+            // are NaN so that nothing downstream mistakes them for a velocity.
+            Err(_) => out[..3 * xs.len()].fill(f64::NAN),
+        }
+    }
+
+    fn sample_gradient(&self, interp: Interp, xs: &[f64], ys: &[f64], zs: &[f64], out: &mut [f64]) {
+        match self.solved() {
+            Ok(grid) => grid.sample_gradient(interp, xs, ys, zs, out),
+            Err(_) => out[..9 * xs.len()].fill(f64::NAN),
+        }
+    }
+
+    fn bounds(&self) -> Aabb {
+        self.domain.bounds()
+    }
+
+    fn background(&self) -> Vec<f64> {
+        vec![0.0; 3]
+    }
+
+    fn cell_size(&self) -> DVec3 {
+        self.domain.cell
+    }
+
+    fn range(&self, region: &Aabb) -> Vec<(f64, f64)> {
+        match self.solved() {
+            Ok(grid) => grid.range(region),
+            Err(_) => vec![(f64::NEG_INFINITY, f64::INFINITY); 3],
+        }
+    }
+
+    fn lattice(&self) -> Option<Lattice> {
+        Some(self.domain.lattice())
+    }
+
+    fn pending_inputs(&self) -> Vec<Arc<dyn GridSource>> {
+        match self.source() {
+            Some(source) if !self.is_solved() => source.grids(),
+            _ => Vec::new(),
+        }
+    }
+
+    fn solve(&self) -> Outcome<()> {
+        self.solved().as_ref().map(|_| ()).map_err(Clone::clone)
+    }
+}
