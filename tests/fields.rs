@@ -7,12 +7,7 @@ mod common;
 use std::path::Path;
 use std::process::Command;
 
-fn numbers(line: &str) -> Vec<f64> {
-    line.split(|c: char| !(c.is_ascii_digit() || "+-.eE".contains(c)))
-        .filter(|t| t.chars().any(|c| c.is_ascii_digit()))
-        .map(|t| t.parse().unwrap())
-        .collect()
-}
+use common::numbers;
 
 #[test]
 fn the_first_field_example_agrees_with_closed_forms() {

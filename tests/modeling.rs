@@ -6,18 +6,7 @@ mod common;
 
 use std::path::Path;
 
-/// Runs a script and returns its printed lines, failing the test on any error.
-fn lines_of(outcome: common::Outcome) -> Vec<String> {
-    assert!(outcome.ok, "{}", outcome.rendered);
-    outcome.output.lines().map(str::to_string).collect()
-}
-
-fn numbers(line: &str) -> Vec<f64> {
-    line.split(|c: char| !(c.is_ascii_digit() || "+-.eE".contains(c)))
-        .filter(|t| !t.is_empty() && t.chars().any(|c| c.is_ascii_digit()))
-        .map(|t| t.parse().unwrap_or_else(|_| panic!("not a number: {t}")))
-        .collect()
-}
+use common::{lines_of, numbers};
 
 #[test]
 fn chapter_scripts_run_as_printed() {

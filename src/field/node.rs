@@ -241,6 +241,33 @@ impl Node {
     }
 }
 
+/// Dropping a node drops its children, and theirs: done recursively, a chain of a few hundred
+/// thousand nodes (a long gridless advection) would overflow the stack. Children whose last
+/// owner is the node being dropped are taken apart here, on a heap stack, instead.
+impl Drop for Node {
+    fn drop(&mut self) {
+        let mut stack = Vec::new();
+        take_children(&mut self.op, &mut stack);
+        while let Some(child) = stack.pop() {
+            if let Some(mut node) = Arc::into_inner(child) {
+                take_children(&mut node.op, &mut stack);
+            }
+        }
+    }
+}
+
+/// Moves the children of `op` onto `stack`, leaving a childless operation behind.
+fn take_children(op: &mut Op, stack: &mut Vec<NodeRef>) {
+    match std::mem::replace(op, Op::Const(0.0)) {
+        Op::Const(_) | Op::X | Op::Y | Op::Z => {}
+        Op::Unary(_, a) => stack.push(a),
+        Op::Binary(_, a, b) => stack.extend([a, b]),
+        Op::Select(c, a, b) => stack.extend([c, a, b]),
+        Op::Kernel(_, args) => stack.extend(args),
+        Op::Output(k, _) => stack.push(k),
+    }
+}
+
 impl fmt::Debug for Node {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "#{} ", self.id)?;
@@ -336,6 +363,12 @@ fn intern(op: Op) -> NodeRef {
         table.sweep_at = (table.nodes.len() * 2).max(1 << 16);
     }
     node
+}
+
+/// Entries in the hash-consing table: every live node, plus dead ones not yet swept. A cheap
+/// upper bound on the size of any one graph.
+pub fn table_len() -> usize {
+    TABLE.lock().unwrap_or_else(|e| e.into_inner()).nodes.len()
 }
 
 pub fn constant(c: f64) -> NodeRef {

@@ -14,6 +14,7 @@ use crate::grid::domain::Domain;
 use crate::grid::interp::{AxisStencil, BORDER_WEIGHT_BOUND, CUBIC_WEIGHT_BOUND, axis_stencil};
 use crate::sample::{Aabb, Interp};
 use glam::{BVec3, DMat3, DVec3};
+use rayon::prelude::*;
 
 /// Cells along each edge of a block of the range table.
 const BLOCK: usize = 8;
@@ -77,21 +78,29 @@ impl DenseGrid {
         &self.values[at..at + self.width]
     }
 
+    /// One slab of blocks (a fixed z block) per task: the same extremes on any thread count.
     fn compute_block_ranges(&self) -> Vec<(f64, f64)> {
-        let [bx, by, bz] = self.blocks;
-        let mut ranges = vec![(f64::INFINITY, f64::NEG_INFINITY); bx * by * bz * self.width];
-        for k in 0..self.cells[2] {
-            for j in 0..self.cells[1] {
-                for i in 0..self.cells[0] {
-                    let block = i / BLOCK + bx * (j / BLOCK + by * (k / BLOCK));
-                    for (c, &v) in self.cell(i, j, k).iter().enumerate() {
-                        let r = &mut ranges[block * self.width + c];
-                        r.0 = r.0.min(v);
-                        r.1 = r.1.max(v);
+        let [bx, by, _] = self.blocks;
+        let slab = bx * by * self.width;
+        let mut ranges = vec![(f64::INFINITY, f64::NEG_INFINITY); slab * self.blocks[2]];
+        ranges
+            .par_chunks_mut(slab)
+            .enumerate()
+            .for_each(|(block_z, slab)| {
+                let k_end = ((block_z + 1) * BLOCK).min(self.cells[2]);
+                for k in block_z * BLOCK..k_end {
+                    for j in 0..self.cells[1] {
+                        for i in 0..self.cells[0] {
+                            let block = i / BLOCK + bx * (j / BLOCK);
+                            for (c, &v) in self.cell(i, j, k).iter().enumerate() {
+                                let r = &mut slab[block * self.width + c];
+                                r.0 = r.0.min(v);
+                                r.1 = r.1.max(v);
+                            }
+                        }
                     }
                 }
-            }
-        }
+            });
         ranges
     }
 
@@ -103,6 +112,48 @@ impl DenseGrid {
         inside.then(|| local / self.domain.cell - DVec3::splat(0.5))
     }
 
+    /// Trilinear reads, the common case, with fixed loop counts: the same weights as the
+    /// linear stencil of `interp` (`1 − t`, `t` from the cell at or below, kept inside).
+    #[inline(always)]
+    fn read_linear<const W: usize, const GRADIENT: bool>(
+        &self,
+        u: DVec3,
+        value: &mut [f64; W],
+        gradient: &mut [[f64; 3]; W],
+    ) {
+        let mut below = [0usize; 3];
+        let mut t = [0.0; 3];
+        for a in 0..3 {
+            below[a] = (u[a].max(0.0) as usize).min(self.cells[a] - 2);
+            t[a] = u[a] - below[a] as f64;
+        }
+        let (nx, ny) = (self.cells[0], self.cells[1]);
+        let w = t.map(|t| [1.0 - t, t]);
+        let base = below[0] + nx * (below[1] + ny * below[2]);
+        for kz in 0..2 {
+            for ky in 0..2 {
+                let weight_yz = w[1][ky] * w[2][kz];
+                let slope_y = if ky == 0 { -w[2][kz] } else { w[2][kz] };
+                let slope_z = if kz == 0 { -w[1][ky] } else { w[1][ky] };
+                let row = (base + nx * (ky + ny * kz)) * W;
+                for kx in 0..2 {
+                    let at = row + kx * W;
+                    let weight = w[0][kx] * weight_yz;
+                    let slope_x = if kx == 0 { -weight_yz } else { weight_yz };
+                    for c in 0..W {
+                        let sample = self.values[at + c];
+                        value[c] += weight * sample;
+                        if GRADIENT {
+                            gradient[c][0] += slope_x * sample;
+                            gradient[c][1] += w[0][kx] * slope_y * sample;
+                            gradient[c][2] += w[0][kx] * slope_z * sample;
+                        }
+                    }
+                }
+            }
+        }
+    }
+
     #[inline(always)]
     fn read_point<const W: usize, const GRADIENT: bool>(
         &self,
@@ -111,6 +162,9 @@ impl DenseGrid {
         value: &mut [f64; W],
         gradient: &mut [[f64; 3]; W],
     ) {
+        if interp == Interp::Linear && self.cells.iter().all(|&n| n >= 2) {
+            return self.read_linear::<W, GRADIENT>(u, value, gradient);
+        }
         let axes: [AxisStencil; 3] =
             std::array::from_fn(|a| axis_stencil(interp, u[a], self.cells[a]));
         let [sx, sy, sz] = &axes;

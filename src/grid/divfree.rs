@@ -84,6 +84,17 @@ impl DivergenceFree {
         })
     }
 
+    /// The solved value of cell `(i, j, k)` in world axes, solving first; `None` outside or
+    /// when the solve failed.
+    pub fn cell_value(&self, i: usize, j: usize, k: usize) -> Option<DVec3> {
+        let cells = self.domain.resolution?;
+        if i >= cells[0] || j >= cells[1] || k >= cells[2] {
+            return None;
+        }
+        let grid = self.solved().as_ref().ok()?;
+        Some(DVec3::from_slice(grid.cell(i, j, k)))
+    }
+
     /// Has the solve run (successfully or not)?
     pub fn is_solved(&self) -> bool {
         self.solved.get().is_some()
@@ -148,10 +159,13 @@ impl DivergenceFree {
         let [nx, ny, nz] = cells;
         let n = nx * ny * nz;
         // Sample row by row (x fastest), in blocks of at most BLOCK points: the same blocks on
-        // any thread count, so the same values.
-        let mut interleaved = vec![0.0f64; 3 * n];
-        interleaved
-            .par_chunks_mut(3 * nx)
+        // any thread count, so the same values. Component-major, as the projection takes them.
+        let mut planes = vec![0.0f64; 3 * n];
+        let (px, rest) = planes.split_at_mut(n);
+        let (py, pz) = rest.split_at_mut(n);
+        px.par_chunks_mut(nx)
+            .zip(py.par_chunks_mut(nx))
+            .zip(pz.par_chunks_mut(nx))
             .enumerate()
             .for_each_init(
                 || {
@@ -161,7 +175,7 @@ impl DivergenceFree {
                         vec![0.0; 3 * BLOCK],
                     )
                 },
-                |(evaluator, [xs, ys, zs], out), (row, values)| {
+                |(evaluator, [xs, ys, zs], out), (row, ((rx, ry), rz))| {
                     let (j, k) = (row % ny, row / ny);
                     let mut start = 0;
                     while start < nx {
@@ -172,41 +186,28 @@ impl DivergenceFree {
                         }
                         let block = &mut out[..3 * len];
                         evaluator.eval_f64(&xs[..len], &ys[..len], &zs[..len], block);
-                        for t in 0..len {
-                            for c in 0..3 {
-                                values[3 * (start + t) + c] = block[c * len + t];
-                            }
-                        }
+                        rx[start..start + len].copy_from_slice(&block[..len]);
+                        ry[start..start + len].copy_from_slice(&block[len..2 * len]);
+                        rz[start..start + len].copy_from_slice(&block[2 * len..]);
                         start += len;
                     }
                 },
             );
-        if let Some(at) = interleaved.iter().position(|v| !v.is_finite()) {
-            let cell = at / 3;
+        if let Some(at) = planes.iter().position(|v| !v.is_finite()) {
+            let cell = at % n;
             let (i, j, k) = (cell % nx, cell / nx % ny, cell / (nx * ny));
             let p = domain.cell_center(i, j, k);
             return Err(Failure::new(format!(
                 "the velocity given to {} is not finite ({}) at cell ({i}, {j}, {k}), position ({}, {}, {})",
-                self.label, interleaved[at], p.x, p.y, p.z
+                self.label, planes[at], p.x, p.y, p.z
             ))
             .with_help("a NaN or infinite velocity usually comes from a division by zero or a NaN time step upstream"));
         }
-        // Into the domain's frame, component-major, for the projection.
-        let to_local = domain.rotation.transpose();
+        // Into the domain's frame for the projection.
         let rotated = domain.rotation != DMat3::IDENTITY;
-        let mut planes = vec![0.0f64; 3 * n];
-        {
-            let (px, rest) = planes.split_at_mut(n);
-            let (py, pz) = rest.split_at_mut(n);
-            px.par_iter_mut()
-                .zip(py.par_iter_mut())
-                .zip(pz.par_iter_mut())
-                .enumerate()
-                .for_each(|(cell, ((x, y), z))| {
-                    let v = DVec3::from_slice(&interleaved[3 * cell..3 * cell + 3]);
-                    let v = if rotated { to_local * v } else { v };
-                    (*x, *y, *z) = (v.x, v.y, v.z);
-                });
+        if rotated {
+            let to_local = domain.rotation.transpose();
+            rotate_planes(&mut planes, n, to_local);
         }
         project_divergence_free_with(
             cells,
@@ -214,18 +215,33 @@ impl DivergenceFree {
             &mut planes,
             DivergenceOperator::CentralDifference,
         )?;
-        // Back to world axes, interleaved for reading.
+        if rotated {
+            rotate_planes(&mut planes, n, domain.rotation);
+        }
+        // Interleaved for reading: a trilinear read touches one place per cell.
+        let mut interleaved = vec![0.0f64; 3 * n];
         interleaved
             .par_chunks_mut(3)
             .enumerate()
             .for_each(|(cell, out)| {
-                let v = DVec3::new(planes[cell], planes[n + cell], planes[2 * n + cell]);
-                let v = if rotated { domain.rotation * v } else { v };
-                out.copy_from_slice(&v.to_array());
+                out.copy_from_slice(&[planes[cell], planes[n + cell], planes[2 * n + cell]]);
             });
         drop(planes);
         Ok(DenseGrid::new(domain.clone(), 3, interleaved, vec![0.0; 3]))
     }
+}
+
+/// Turns the vector at every cell of component-major planes by `rotation`.
+fn rotate_planes(planes: &mut [f64], n: usize, rotation: DMat3) {
+    let (px, rest) = planes.split_at_mut(n);
+    let (py, pz) = rest.split_at_mut(n);
+    px.par_iter_mut()
+        .zip(py.par_iter_mut())
+        .zip(pz.par_iter_mut())
+        .for_each(|((x, y), z)| {
+            let v = rotation * DVec3::new(*x, *y, *z);
+            (*x, *y, *z) = (v.x, v.y, v.z);
+        });
 }
 
 impl Drop for DivergenceFree {
@@ -308,3 +324,6 @@ impl GridSource for DivergenceFree {
         self.solved().as_ref().map(|_| ()).map_err(Clone::clone)
     }
 }
+
+#[cfg(test)]
+mod tests;

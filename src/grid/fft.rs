@@ -147,6 +147,7 @@ pub fn project_divergence_free_with(
         )));
     }
     check_working_memory(grid.len, PROJECTION_BYTES_PER_CELL, "fftdivfree")?;
+    let mut lines = Vec::new();
     let mut spectra: Vec<Vec<Complex64>> = data
         .chunks(grid.len)
         .map(|component| {
@@ -154,14 +155,14 @@ pub fn project_divergence_free_with(
                 .par_iter()
                 .map(|v| Complex64::new(*v, 0.0))
                 .collect();
-            grid.transform(&mut s, FftDirection::Forward);
+            grid.transform_with(&mut s, FftDirection::Forward, &mut lines);
             s
         })
         .collect();
     grid.project(&mut spectra, operator);
     let scale = 1.0 / grid.len as f64;
     for (s, out) in spectra.iter_mut().zip(data.chunks_mut(grid.len)) {
-        grid.transform(s, FftDirection::Inverse);
+        grid.transform_with(s, FftDirection::Inverse, &mut lines);
         out.par_iter_mut()
             .zip(s.par_iter())
             .for_each(|(o, v)| *o = v.re * scale);
@@ -363,56 +364,103 @@ impl Grid {
     }
 
     /// The unnormalised 3D discrete Fourier transform, in place: 1D transforms along x, then
-    /// y, then z. Lines along y and z are gathered into contiguous rows, transformed, and
-    /// scattered back.
+    /// y, then z. Lines along y and z are made contiguous by transposing, tile by tile, so every
+    /// cache line read is used whole: along y one z-slab at a time (it fits in cache), along z
+    /// the whole array, viewed as `nz` rows of `nx·ny`, in tiles of consecutive columns.
     fn transform(&self, data: &mut [Complex64], direction: FftDirection) {
+        let mut lines = Vec::new();
+        self.transform_with(data, direction, &mut lines);
+    }
+
+    /// [`Grid::transform`] with the buffer for the z pass supplied by the caller, so a sequence
+    /// of transforms allocates (and page-faults) it once.
+    fn transform_with(
+        &self,
+        data: &mut [Complex64],
+        direction: FftDirection,
+        lines: &mut Vec<Complex64>,
+    ) {
         let mut planner = FftPlanner::<f64>::new();
-        let [nx, ny, _] = self.counts;
-        for axis in 0..3 {
-            let length = self.counts[axis];
-            if length == 1 {
-                continue;
-            }
-            let fft: Arc<dyn Fft<f64>> = planner.plan_fft(length, direction);
+        let [nx, ny, nz] = self.counts;
+        let plan = |planner: &mut FftPlanner<f64>, n: usize| -> Arc<dyn Fft<f64>> {
+            planner.plan_fft(n, direction)
+        };
+        if nx > 1 {
+            let fft = plan(&mut planner, nx);
             let scratch = || vec![Complex64::default(); fft.get_inplace_scratch_len()];
-            if axis == 0 {
-                data.par_chunks_mut(nx)
-                    .for_each_init(scratch, |s, line| fft.process_with_scratch(line, s));
-                continue;
-            }
-            let stride = if axis == 1 { nx } else { nx * ny };
-            // Line `l` runs along `axis` from `start(l)`; the other two coordinates number it.
-            let start = |l: usize| {
-                if axis == 1 {
-                    l % nx + nx * ny * (l / nx)
-                } else {
-                    l
-                }
+            data.par_chunks_mut(nx)
+                .for_each_init(scratch, |s, line| fft.process_with_scratch(line, s));
+        }
+        if ny > 1 {
+            let fft = plan(&mut planner, ny);
+            let scratch = || {
+                (
+                    vec![Complex64::default(); nx * ny],
+                    vec![Complex64::default(); fft.get_inplace_scratch_len()],
+                )
             };
-            let mut lines = vec![Complex64::default(); self.len];
-            let source = &*data;
-            lines
-                .par_chunks_mut(length)
-                .enumerate()
-                .for_each_init(scratch, |s, (l, line)| {
-                    let first = start(l);
-                    for (t, v) in line.iter_mut().enumerate() {
-                        *v = source[first + t * stride];
+            data.par_chunks_mut(nx * ny)
+                .for_each_init(scratch, |(columns, s), slab| {
+                    transpose(slab, columns, ny, nx);
+                    for line in columns.chunks_mut(ny) {
+                        fft.process_with_scratch(line, s);
                     }
-                    fft.process_with_scratch(line, s);
+                    transpose(columns, slab, nx, ny);
                 });
-            data.par_chunks_mut(nx).enumerate().for_each(|(row, out)| {
-                // Row `row = j + ny·k` of x-lines; find each cell's line and place in it.
-                let (j, k) = (row % ny, row / ny);
-                for (i, v) in out.iter_mut().enumerate() {
-                    let (l, t) = if axis == 1 {
-                        (i + nx * k, j)
-                    } else {
-                        (i + nx * j, k)
-                    };
-                    *v = lines[l * length + t];
+        }
+        if nz > 1 {
+            let fft = plan(&mut planner, nz);
+            let columns = nx * ny;
+            // Columns per tile: 16 complex values are four cache lines.
+            const TILE: usize = 16;
+            lines.resize(self.len, Complex64::default());
+            let source = &*data;
+            lines.par_chunks_mut(nz * TILE).enumerate().for_each_init(
+                || vec![Complex64::default(); fft.get_inplace_scratch_len()],
+                |s, (tile, out)| {
+                    let first = tile * TILE;
+                    let width = out.len() / nz;
+                    for t in 0..nz {
+                        let row = &source[t * columns + first..t * columns + first + width];
+                        for (q, v) in row.iter().enumerate() {
+                            out[q * nz + t] = *v;
+                        }
+                    }
+                    for line in out.chunks_mut(nz) {
+                        fft.process_with_scratch(line, s);
+                    }
+                },
+            );
+            let lines = &*lines;
+            // Back, a band of rows at a time: each column of the band is contiguous in `lines`.
+            const BAND: usize = 8;
+            data.par_chunks_mut(columns * BAND)
+                .enumerate()
+                .for_each(|(band, rows)| {
+                    let first = band * BAND;
+                    let height = rows.len() / columns;
+                    for m in 0..columns {
+                        let line = &lines[m * nz + first..m * nz + first + height];
+                        for (q, v) in line.iter().enumerate() {
+                            rows[q * columns + m] = *v;
+                        }
+                    }
+                });
+        }
+    }
+}
+
+/// `to[c·rows + r] = from[r·cols + c]`: the transpose of a `rows × cols` row-major matrix,
+/// in 8×8 tiles.
+fn transpose(from: &[Complex64], to: &mut [Complex64], rows: usize, cols: usize) {
+    const T: usize = 8;
+    for r0 in (0..rows).step_by(T) {
+        for c0 in (0..cols).step_by(T) {
+            for r in r0..(r0 + T).min(rows) {
+                for c in c0..(c0 + T).min(cols) {
+                    to[c * rows + r] = from[r * cols + c];
                 }
-            });
+            }
         }
     }
 }

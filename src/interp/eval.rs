@@ -6,7 +6,7 @@ use super::registry::{self, Args, Resolution};
 use super::value::{Value, matrix_from_rows};
 use super::{CallSite, Flow, Frame, Interpreter, MAX_CALL_DEPTH};
 use crate::check::types::{Type, unify};
-use crate::diagnostic::Diagnostic;
+use crate::diagnostic::{Diagnostic, Stage};
 use crate::failure::Failure;
 use crate::field::Field;
 use crate::interp::ops;
@@ -229,9 +229,43 @@ impl Interpreter {
             },
         );
         self.call_span = previous;
-        result.map_err(|f| self.error(span, f))
+        let value = result.map_err(|f| self.error(span, f))?;
+        self.check_graph_size(&value, span);
+        Ok(value)
+    }
+
+    /// Warns, once per run, when a builtin returns a field whose graph has passed
+    /// `graph_warning_nodes`: typically a velocity advected by itself and never gridded, whose
+    /// graph doubles every step. Counting a graph walks it, so it is only counted when the
+    /// node table as a whole is that large, and then not again until the table has doubled.
+    fn check_graph_size(&mut self, value: &Value, span: Span) {
+        let table = crate::field::node::table_len();
+        if self.graph_warned || table < self.graph_check_at.min(self.graph_warning_nodes) {
+            return;
+        }
+        self.graph_check_at = table * 2;
+        let Value::Field(field) = value else { return };
+        let nodes = crate::field::node::postorder(field.components()).len();
+        if nodes < self.graph_warning_nodes {
+            return;
+        }
+        self.graph_warned = true;
+        self.warnings.push(
+            Diagnostic::warning(
+                Stage::Runtime,
+                span,
+                format!("this field's graph has grown to {nodes} nodes; every value of it evaluates all of them"),
+            )
+            .with_help(
+                "a field advected by itself step after step doubles each time: sample it into a cache \
+                 (cachewrite/cacheread) or project it with fftdivfree every step",
+            ),
+        );
     }
 }
+
+/// The size of a field graph that gets a warning, unless a session sets another.
+pub const GRAPH_WARNING_NODES: usize = 1_000_000;
 
 /// `(a, b, c)`: a vector from numbers, a matrix from vectors (rows), or the field versions.
 fn tuple(values: Vec<Value>) -> Result<Value, Failure> {

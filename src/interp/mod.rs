@@ -75,6 +75,12 @@ pub struct Interpreter {
     pub call_span: Span,
     /// Every cache written, with the `cachewrite` call, to report non-finite values at the end.
     pub written_caches: Vec<(std::sync::Weak<crate::grid::cache::Cache>, Span)>,
+    /// Field graphs larger than this get a warning (once per run).
+    pub graph_warning_nodes: usize,
+    /// The node-table size at which field graphs are next counted (see `check_graph_size`).
+    graph_check_at: usize,
+    /// Whether the large-graph warning was given (it is given once per run).
+    graph_warned: bool,
 }
 
 /// Control flow out of a statement.
@@ -99,6 +105,9 @@ impl Interpreter {
             overrides: HashMap::new(),
             warnings: Vec::new(),
             call_span: Span::default(),
+            graph_warning_nodes: eval::GRAPH_WARNING_NODES,
+            graph_check_at: eval::GRAPH_WARNING_NODES,
+            graph_warned: false,
             written_caches: Vec::new(),
         }
     }

@@ -71,3 +71,17 @@ pub fn run_source(name: &str, source: &str) -> Outcome {
     std::fs::write(&path, source).expect("write script");
     run_script(&path, &[])
 }
+
+/// Runs a script and returns its printed lines, failing the test on any error.
+pub fn lines_of(outcome: Outcome) -> Vec<String> {
+    assert!(outcome.ok, "{}", outcome.rendered);
+    outcome.output.lines().map(str::to_string).collect()
+}
+
+/// The numbers in a printed line, in order.
+pub fn numbers(line: &str) -> Vec<f64> {
+    line.split(|c: char| !(c.is_ascii_digit() || "+-.eE".contains(c)))
+        .filter(|t| !t.is_empty() && t.chars().any(|c| c.is_ascii_digit()))
+        .map(|t| t.parse().unwrap_or_else(|_| panic!("not a number: {t}")))
+        .collect()
+}
