@@ -390,3 +390,26 @@ fn a_graph_that_doubles_every_step_gets_one_warning() {
     assert!(rendered.contains("doubling.felt:4:24"), "{rendered}");
     assert!(rendered.contains("cache"), "{rendered}");
 }
+
+#[test]
+fn simulations_are_bit_identical_for_any_thread_count() {
+    let run = |threads: &str, script: &str| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_felt"))
+            .args(["run", script, "--threads", threads])
+            .output()
+            .expect("run felt");
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        out.stdout
+    };
+    for script in [
+        "tests/scripts/chapter/hotcold_gridded.felt",
+        "tests/scripts/chapter/selma.felt",
+    ] {
+        assert_eq!(run("1", script), run("2", script), "{script}");
+        assert_eq!(run("1", script), run("3", script), "{script}");
+    }
+}

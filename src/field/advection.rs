@@ -9,19 +9,23 @@
 //!   where `B` is the back trace and `B⁻` the trace forwards;
 //! - **BFECC** (Kim et al. 2005): `F' = F + (F − φ̃)/2`, result `F'∘B`.
 //!
-//! The one key decision is the clamp. Both schemes overshoot near sharp features; where `F` is
-//! a single grid read (a cached density, a SELMA map), the result is clamped to the smallest
-//! and largest of the eight samples around the back-traced point, written as graph nodes (the
-//! cell centres are found with `floor` in the grid's index space), so the clamped scheme is
-//! still an ordinary field. A grid read that extrapolates outside its box (a map) is clamped
-//! only where the back trace lands inside it, so an affine map stays affine beyond the border.
-//! Where `F` is procedural there are no samples and the result is not clamped. Each scheme
-//! reads `F` three times, so applied gridlessly, step after step, its graph grows threefold
-//! per step: cache between steps.
+//! What they correct is the error of interpolating between cells, so they act where `F` is a
+//! grid read (a cached density, a SELMA map); the intermediate `φ̂` (and BFECC's `F'`) are
+//! sampled onto `F`'s own cells through a lazy cache, exactly as a grid solver stores them.
+//! On a procedural `F` nothing is interpolated and every scheme is the plain back trace.
+//!
+//! The one key decision is the clamp. Both schemes overshoot near sharp features, so the
+//! result is clamped to the smallest and largest of the eight samples of `F` around the
+//! back-traced point, written as graph nodes (the cell centres are found with `floor` in the
+//! grid's index space): the clamped scheme is still an ordinary field. A grid read that
+//! extrapolates outside its box (a map) is clamped only where the back trace lands inside it,
+//! so an affine map stays affine beyond the border.
 
 use super::node::{self, Kernel, NodeRef, Op};
 use super::{Field, FieldKind};
 use crate::failure::{Failure, Outcome};
+use crate::sample::GridSource;
+use std::sync::Arc;
 
 /// How `advect` moves values along the velocity.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -95,25 +99,62 @@ pub fn advect(f: &Field, u: &Field, dt: &Field, order: u32) -> Outcome<Field> {
     f.compose(&back_trace(u, dt, order)?)
 }
 
-/// `advect` with a choice of scheme.
-pub fn advect_with(f: &Field, u: &Field, dt: &Field, order: u32, scheme: Scheme) -> Outcome<Field> {
+/// How an error-correcting scheme samples its intermediate fields onto the grid of the field
+/// being advected: given a field and the grid it is read from, a field reading that field's
+/// samples over the same cells (the interpreter makes a lazy cache).
+pub type Resample<'a> = dyn Fn(&Field, &dyn GridSource) -> Outcome<Field> + 'a;
+
+/// `advect` with a choice of scheme. The error-correcting schemes correct the error of
+/// interpolating between cells, so they apply where `f` is read from a grid; there the
+/// intermediate fields go through `resample` onto that grid, exactly as a grid solver stores
+/// them. Elsewhere (a procedural `f`) there is no interpolation to correct and every scheme is
+/// the plain back trace.
+pub fn advect_with(
+    f: &Field,
+    u: &Field,
+    dt: &Field,
+    order: u32,
+    scheme: Scheme,
+    resample: &Resample<'_>,
+) -> Outcome<Field> {
     let back = back_trace(u, dt, order)?;
-    if scheme == Scheme::SemiLagrangian {
+    let Some(grid) = grid_read(f).filter(|_| scheme != Scheme::SemiLagrangian) else {
         return f.compose(&back);
-    }
+    };
     let forward = back_trace(&u.neg(), dt, order)?;
     let half = Field::constant_scalar(0.5);
-    let predicted = f.compose(&back)?;
+    let predicted = resample(&f.compose(&back)?, grid.as_ref())?;
     let returned = predicted.compose(&forward)?;
     let error = f.sub(&returned)?.mul(&half)?;
     let corrected = match scheme {
         Scheme::MacCormack => predicted.add(&error)?,
-        _ => f.add(&error)?.compose(&back)?,
+        _ => resample(&f.add(&error)?, grid.as_ref())?.compose(&back)?,
     };
-    Ok(match neighbour_limits(f, &back) {
+    Ok(match neighbour_limits(f, grid.as_ref(), &back) {
         Some(limits) => limits.clamp(&corrected),
         None => corrected,
     })
+}
+
+/// The grid `f` reads, when `f` is exactly one read of a grid at the position (a `cacheread`).
+fn grid_read(f: &Field) -> Option<Arc<dyn GridSource>> {
+    let first = f.components().first()?;
+    let Op::Output(kernel, _) = &first.op else {
+        return None;
+    };
+    let Op::Kernel(Kernel::GridValue { grid, .. }, args) = &kernel.op else {
+        return None;
+    };
+    let reads_position = args
+        .iter()
+        .enumerate()
+        .all(|(axis, a)| a.id == node::position(axis).id);
+    let one_read =
+        f.components().iter().enumerate().all(
+            |(c, n)| matches!(&n.op, Op::Output(k, i) if k.id == kernel.id && *i as usize == c),
+        );
+    (reads_position && one_read && grid.width() == f.kind().width() && grid.lattice().is_some())
+        .then(|| grid.clone())
 }
 
 /// Per component, the smallest and largest sample around the back-traced points, and where
@@ -147,27 +188,9 @@ impl Limits {
     }
 }
 
-/// When `f` is exactly one grid read at the position, the limits of the eight samples around
-/// the points `at` (the linear stencil's cells, by `floor` in the grid's index space).
-fn neighbour_limits(f: &Field, at: &Field) -> Option<Limits> {
-    let first = f.components().first()?;
-    let Op::Output(kernel, _) = &first.op else {
-        return None;
-    };
-    let Op::Kernel(Kernel::GridValue { grid, .. }, args) = &kernel.op else {
-        return None;
-    };
-    let reads_position = args
-        .iter()
-        .enumerate()
-        .all(|(axis, a)| a.id == node::position(axis).id);
-    let one_read =
-        f.components().iter().enumerate().all(
-            |(c, n)| matches!(&n.op, Op::Output(k, i) if k.id == kernel.id && *i as usize == c),
-        );
-    if !(reads_position && one_read && grid.width() == f.kind().width()) {
-        return None;
-    }
+/// The limits of the eight samples of `grid` (which `f` reads) around the points `at`: the
+/// linear stencil's cells, found by `floor` in the grid's index space.
+fn neighbour_limits(f: &Field, grid: &dyn GridSource, at: &Field) -> Option<Limits> {
     let lattice = grid.lattice()?;
     let at = at.components();
     // Index coordinates of the back-traced point: R^T (p − origin) / cell − ½.

@@ -28,7 +28,7 @@ mod sampler;
 #[cfg(test)]
 mod tests;
 
-pub use advection::{Scheme, advect, advect_with};
+pub use advection::{Resample, Scheme, advect, advect_with};
 pub use node::MathFn;
 pub use sampler::{CompiledField, grids_read, prepare, probe, stats};
 

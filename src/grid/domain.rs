@@ -123,6 +123,20 @@ impl Domain {
         Ok(domain)
     }
 
+    /// The domain whose cells are `lattice`'s (the rotation is taken as given, not rebuilt
+    /// from a rotation vector, so the cell centres are the same to the bit).
+    pub fn from_lattice(lattice: &crate::sample::Lattice) -> Domain {
+        let counts = lattice.counts.map(|n| n as f64);
+        Domain {
+            origin: lattice.origin,
+            lengths: lattice.cell * DVec3::from_array(counts),
+            orientation: DQuat::from_mat3(&lattice.rotation).to_scaled_axis(),
+            rotation: lattice.rotation,
+            resolution: Some(lattice.counts),
+            cell: lattice.cell,
+        }
+    }
+
     /// Where the cell centres sit, for readers of grids over this domain.
     pub fn lattice(&self) -> crate::sample::Lattice {
         crate::sample::Lattice {

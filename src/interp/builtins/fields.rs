@@ -7,6 +7,7 @@ use crate::field::{self, Field, FieldKind, FieldValue};
 use crate::interp::Interpreter;
 use crate::interp::registry::{Args, Registry};
 use crate::interp::value::Value;
+use crate::sample::GridSource;
 
 pub fn register(r: &mut Registry) {
     r.add(
@@ -129,7 +130,7 @@ pub fn register(r: &mut Registry) {
         ],
         "f carried along velocity u for time dt: a semi-Lagrangian back-trace (order 1, or Runge-Kutta 2, 3, 4); \
          scheme = \"maccormack\" or \"bfecc\" corrects the back-trace's error (clamped where f is a grid read)",
-        |_, a| {
+        |interp, a| {
             let order = a.opt_int(3)?.unwrap_or(1);
             if !(1..=4).contains(&order) {
                 return Err(Failure::new(format!("advect order must be 1, 2, 3 or 4, found {order}")));
@@ -149,7 +150,9 @@ pub fn register(r: &mut Registry) {
             {
                 return Err(Failure::new(format!("the velocity of advect must be finite, found {v}")));
             }
-            Ok(Value::Field(field::advect_with(&f, &u, &dt, order as u32, scheme)?))
+            let label = format!("advect scheme at {}", interp.location(interp.call_span));
+            let resample = |f: &Field, grid: &dyn GridSource| super::grids::resample(f, grid, &label);
+            Ok(Value::Field(field::advect_with(&f, &u, &dt, order as u32, scheme, &resample)?))
         },
     );
     r.add(

@@ -348,3 +348,27 @@ pub fn report_nonfinite(interp: &mut Interpreter, cache: &Cache, span: crate::sy
         );
     }
 }
+
+/// `field` sampled lazily over the cells of `grid` and read back the way `grid` is read
+/// (extrapolating outside when it does): the intermediate grids of error-correcting advection.
+pub fn resample(field: &Field, grid: &dyn GridSource, label: &str) -> Outcome<Field> {
+    let Some(lattice) = grid.lattice() else {
+        return Err(Failure::new(format!(
+            "{} has no cells to sample onto",
+            grid.label()
+        )));
+    };
+    let cache = Arc::new(Cache::from_field(
+        Domain::from_lattice(&lattice),
+        field.kind().width(),
+        CompiledField::shared(field),
+        grid.background(),
+        label.to_string(),
+    )?);
+    let read: Arc<dyn GridSource> = if lattice.extrapolates {
+        Arc::new(Extrapolated::new(cache))
+    } else {
+        cache
+    };
+    Field::from_grid(read, Interp::Linear, GridDerivative::Interpolant)
+}
