@@ -23,6 +23,8 @@ const BLOCK: usize = 8;
 pub struct DenseGrid {
     domain: Domain,
     to_local: DMat3,
+    axis_aligned: bool,
+    inverse_cell: DVec3,
     cells: [usize; 3],
     width: usize,
     /// Component `c` of cell `(i, j, k)` at `(i + nx (j + ny k)) * width + c`.
@@ -43,6 +45,8 @@ impl DenseGrid {
         let blocks = cells.map(|n| n.div_ceil(BLOCK));
         let mut grid = DenseGrid {
             to_local: domain.rotation.transpose(),
+            axis_aligned: domain.rotation == DMat3::IDENTITY,
+            inverse_cell: domain.cell.recip(),
             domain,
             cells,
             width,
@@ -107,9 +111,15 @@ impl DenseGrid {
     /// Continuous cell-index coordinates of a world point inside the box.
     #[inline]
     fn index_coords(&self, p: DVec3) -> Option<DVec3> {
-        let local = self.to_local * (p - self.domain.origin);
+        let offset = p - self.domain.origin;
+        // Most simulation domains are axis-aligned: skip the rotation there.
+        let local = if self.axis_aligned {
+            offset
+        } else {
+            self.to_local * offset
+        };
         let inside = local.cmpge(DVec3::ZERO).all() && local.cmple(self.domain.lengths).all();
-        inside.then(|| local / self.domain.cell - DVec3::splat(0.5))
+        inside.then(|| local * self.inverse_cell - DVec3::splat(0.5))
     }
 
     /// Trilinear reads, the common case, with fixed loop counts: the same weights as the
@@ -128,8 +138,14 @@ impl DenseGrid {
             t[a] = u[a] - below[a] as f64;
         }
         let (nx, ny) = (self.cells[0], self.cells[1]);
-        let w = t.map(|t| [1.0 - t, t]);
         let base = below[0] + nx * (below[1] + ny * below[2]);
+        if !GRADIENT && t == [0.0; 3] {
+            // Exactly on a cell centre (as when a solve samples its predecessor there): the
+            // trilinear sum is that cell's value.
+            value.copy_from_slice(&self.values[base * W..base * W + W]);
+            return;
+        }
+        let w = t.map(|t| [1.0 - t, t]);
         for kz in 0..2 {
             for ky in 0..2 {
                 let weight_yz = w[1][ky] * w[2][kz];

@@ -102,78 +102,6 @@ pub fn gaussian_random_field(
     Ok(samples.concat().into_par_iter().map(|v| v as f32).collect())
 }
 
-/// Removes the divergent part of a periodic vector field sampled at cell centres
-/// (component-major, width 3, components along the grid's own axes) in place, by projection in
-/// Fourier space with the spectral derivative. The samples are projected in `f64` and rounded
-/// back to `f32`.
-pub fn project_divergence_free(
-    resolution: [usize; 3],
-    cell: DVec3,
-    data: &mut [f32],
-) -> Outcome<()> {
-    let mut wide: Vec<f64> = data.iter().map(|&v| f64::from(v)).collect();
-    project_divergence_free_with(resolution, cell, &mut wide, DivergenceOperator::Spectral)?;
-    for (out, v) in data.iter_mut().zip(wide) {
-        *out = v as f32;
-    }
-    Ok(())
-}
-
-/// Removes, in place, the part of a periodic vector field (`f64` samples at cell centres,
-/// component-major, width 3, components along the grid's own axes) that `operator`'s
-/// divergence sees: afterwards that discrete divergence vanishes to round-off, and projecting
-/// again changes nothing beyond round-off. Used by `fftdivfree` with central differences.
-pub fn project_divergence_free_with(
-    resolution: [usize; 3],
-    cell: DVec3,
-    data: &mut [f64],
-    operator: DivergenceOperator,
-) -> Outcome<()> {
-    let grid = Grid::new(resolution, cell.to_array())?;
-    if data.len() != 3 * grid.len {
-        return Err(Failure::new(format!(
-            "a divergence-free projection needs 3 components of {} cells ({} values), got {}",
-            grid.len,
-            3 * grid.len,
-            data.len()
-        )));
-    }
-    if let Some(at) = data.iter().position(|v| !v.is_finite()) {
-        let (c, i) = (at / grid.len, at % grid.len);
-        let [x, y, z] = grid.cell_of(i);
-        return Err(Failure::new(format!(
-            "cannot remove the divergence of a field with a non-finite value ({}) in component {c} of cell ({x}, {y}, {z})",
-            data[at]
-        )));
-    }
-    check_working_memory(grid.len, PROJECTION_BYTES_PER_CELL, "fftdivfree")?;
-    let mut lines = Vec::new();
-    let mut spectra: Vec<Vec<Complex64>> = data
-        .chunks(grid.len)
-        .map(|component| {
-            let mut s: Vec<Complex64> = component
-                .par_iter()
-                .map(|v| Complex64::new(*v, 0.0))
-                .collect();
-            grid.transform_with(&mut s, FftDirection::Forward, &mut lines);
-            s
-        })
-        .collect();
-    grid.project(&mut spectra, operator);
-    let scale = 1.0 / grid.len as f64;
-    for (s, out) in spectra.iter_mut().zip(data.chunks_mut(grid.len)) {
-        grid.transform_with(s, FftDirection::Inverse, &mut lines);
-        out.par_iter_mut()
-            .zip(s.par_iter())
-            .for_each(|(o, v)| *o = v.re * scale);
-    }
-    Ok(())
-}
-
-/// Bytes per cell that [`project_divergence_free_with`] needs beyond its input: three complex
-/// spectra and the scratch of one transform pass.
-pub const PROJECTION_BYTES_PER_CELL: usize = 16 * 4;
-
 pub fn check_working_memory(cells: usize, bytes_per_cell: usize, what: &str) -> Outcome<()> {
     let bytes = cells as f64 * bytes_per_cell as f64;
     let limit = memory_limit() as f64;
@@ -330,6 +258,12 @@ impl Grid {
     /// wave vector `κ`: `û ← û − κ(κ·û)/|κ|²`. Modes with `κ = 0` are left as they are.
     fn project(&self, spectra: &mut [Vec<Complex64>], operator: DivergenceOperator) {
         let kappa: [Vec<f64>; 3] = std::array::from_fn(|a| self.derivative_symbols(a, operator));
+        self.project_with(spectra, &kappa);
+    }
+
+    /// [`Grid::project`] with the wave vector's components per mode index along each axis
+    /// given (for a half spectrum, whose x modes are the first `nx/2 + 1` of the full grid's).
+    fn project_with(&self, spectra: &mut [Vec<Complex64>], kappa: &[Vec<f64>; 3]) {
         let [x, y, z] = spectra else { return };
         x.par_iter_mut()
             .zip(y.par_iter_mut())
@@ -380,73 +314,102 @@ impl Grid {
         direction: FftDirection,
         lines: &mut Vec<Complex64>,
     ) {
+        self.transform_axes(data, direction, lines, true);
+    }
+
+    /// The passes of [`Grid::transform_with`], the one along x only when `along_x` (a half
+    /// spectrum has had its x pass done by a real transform).
+    fn transform_axes(
+        &self,
+        data: &mut [Complex64],
+        direction: FftDirection,
+        lines: &mut Vec<Complex64>,
+        along_x: bool,
+    ) {
         let mut planner = FftPlanner::<f64>::new();
         let [nx, ny, nz] = self.counts;
-        let plan = |planner: &mut FftPlanner<f64>, n: usize| -> Arc<dyn Fft<f64>> {
-            planner.plan_fft(n, direction)
-        };
-        if nx > 1 {
-            let fft = plan(&mut planner, nx);
+        if nx > 1 && along_x {
+            let fft = planner.plan_fft(nx, direction);
             let scratch = || vec![Complex64::default(); fft.get_inplace_scratch_len()];
             data.par_chunks_mut(nx)
                 .for_each_init(scratch, |s, line| fft.process_with_scratch(line, s));
         }
-        if ny > 1 {
-            let fft = plan(&mut planner, ny);
-            let scratch = || {
-                (
-                    vec![Complex64::default(); nx * ny],
-                    vec![Complex64::default(); fft.get_inplace_scratch_len()],
-                )
-            };
-            data.par_chunks_mut(nx * ny)
-                .for_each_init(scratch, |(columns, s), slab| {
-                    transpose(slab, columns, ny, nx);
-                    for line in columns.chunks_mut(ny) {
-                        fft.process_with_scratch(line, s);
-                    }
-                    transpose(columns, slab, nx, ny);
-                });
-        }
+        self.pass_y(data, &planner.plan_fft(ny, direction));
         if nz > 1 {
-            let fft = plan(&mut planner, nz);
-            let columns = nx * ny;
-            // Columns per tile: 16 complex values are four cache lines.
-            const TILE: usize = 16;
             lines.resize(self.len, Complex64::default());
-            let source = &*data;
-            lines.par_chunks_mut(nz * TILE).enumerate().for_each_init(
-                || vec![Complex64::default(); fft.get_inplace_scratch_len()],
-                |s, (tile, out)| {
-                    let first = tile * TILE;
-                    let width = out.len() / nz;
-                    for t in 0..nz {
-                        let row = &source[t * columns + first..t * columns + first + width];
-                        for (q, v) in row.iter().enumerate() {
-                            out[q * nz + t] = *v;
-                        }
-                    }
-                    for line in out.chunks_mut(nz) {
-                        fft.process_with_scratch(line, s);
-                    }
-                },
-            );
-            let lines = &*lines;
-            // Back, a band of rows at a time: each column of the band is contiguous in `lines`.
-            const BAND: usize = 8;
-            data.par_chunks_mut(columns * BAND)
-                .enumerate()
-                .for_each(|(band, rows)| {
-                    let first = band * BAND;
-                    let height = rows.len() / columns;
-                    for m in 0..columns {
-                        let line = &lines[m * nz + first..m * nz + first + height];
-                        for (q, v) in line.iter().enumerate() {
-                            rows[q * columns + m] = *v;
-                        }
-                    }
-                });
+            self.gather_z(data, lines, &planner.plan_fft(nz, direction));
+            self.scatter_z(lines, data);
         }
+    }
+
+    /// Transforms every line along y, one z-slab at a time: the slab is transposed so its
+    /// y lines are contiguous (it fits in cache), transformed, and transposed back.
+    fn pass_y(&self, data: &mut [Complex64], fft: &Arc<dyn Fft<f64>>) {
+        let [nx, ny, _] = self.counts;
+        if ny == 1 {
+            return;
+        }
+        let scratch = || {
+            (
+                vec![Complex64::default(); nx * ny],
+                vec![Complex64::default(); fft.get_inplace_scratch_len()],
+            )
+        };
+        data.par_chunks_mut(nx * ny)
+            .for_each_init(scratch, |(columns, s), slab| {
+                transpose(slab, columns, ny, nx);
+                for line in columns.chunks_mut(ny) {
+                    fft.process_with_scratch(line, s);
+                }
+                transpose(columns, slab, nx, ny);
+            });
+    }
+
+    /// Copies `data` (x fastest) into `lines` in z-major order, `lines[m·nz + k] =
+    /// data[m + k·nx·ny]` with `m = i + nx·j`, and transforms each line. The array is viewed as
+    /// `nz` rows of `nx·ny` and read in tiles of consecutive columns, so every cache line read
+    /// is used whole.
+    fn gather_z(&self, data: &[Complex64], lines: &mut [Complex64], fft: &Arc<dyn Fft<f64>>) {
+        let [nx, ny, nz] = self.counts;
+        let columns = nx * ny;
+        // Columns per tile: 16 complex values are four cache lines.
+        const TILE: usize = 16;
+        lines.par_chunks_mut(nz * TILE).enumerate().for_each_init(
+            || vec![Complex64::default(); fft.get_inplace_scratch_len()],
+            |s, (tile, out)| {
+                let first = tile * TILE;
+                let width = out.len() / nz;
+                for t in 0..nz {
+                    let row = &data[t * columns + first..t * columns + first + width];
+                    for (q, v) in row.iter().enumerate() {
+                        out[q * nz + t] = *v;
+                    }
+                }
+                for line in out.chunks_mut(nz) {
+                    fft.process_with_scratch(line, s);
+                }
+            },
+        );
+    }
+
+    /// The inverse of the copy in [`Grid::gather_z`], a band of rows at a time: each column of
+    /// the band is contiguous in `lines`.
+    fn scatter_z(&self, lines: &[Complex64], data: &mut [Complex64]) {
+        let [nx, ny, nz] = self.counts;
+        let columns = nx * ny;
+        const BAND: usize = 8;
+        data.par_chunks_mut(columns * BAND)
+            .enumerate()
+            .for_each(|(band, rows)| {
+                let first = band * BAND;
+                let height = rows.len() / columns;
+                for m in 0..columns {
+                    let line = &lines[m * nz + first..m * nz + first + height];
+                    for (q, v) in line.iter().enumerate() {
+                        rows[q * columns + m] = *v;
+                    }
+                }
+            });
     }
 }
 
@@ -465,5 +428,10 @@ fn transpose(from: &[Complex64], to: &mut [Complex64], rows: usize, cols: usize)
     }
 }
 
+mod projection;
 #[cfg(test)]
 mod tests;
+
+pub use projection::{
+    PROJECTION_BYTES_PER_CELL, project_divergence_free, project_divergence_free_with,
+};

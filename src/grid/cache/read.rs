@@ -60,6 +60,24 @@ impl Cache {
         gradient: &mut [[f64; 3]; W],
     ) {
         let cells = self.shape.cells;
+        if !GRADIENT && u.floor() == u && u.cmpge(DVec3::ZERO).all() {
+            // Exactly on a cell centre (as when a solve or a cache over the same cells reads
+            // this one): every rule's weights are 1 there and 0 elsewhere.
+            let [i, j, k] = [u.x as usize, u.y as usize, u.z as usize];
+            if i < cells[0] && j < cells[1] && k < cells[2] {
+                let index = self.shape.brick_index([i / BRICK, j / BRICK, k / BRICK]);
+                match self.brick(index).values.as_deref() {
+                    Some(values) => {
+                        let at = (i % BRICK + BRICK * (j % BRICK + BRICK * (k % BRICK))) * W;
+                        for c in 0..W {
+                            value[c] = f64::from(values[at + c]);
+                        }
+                    }
+                    None => value.copy_from_slice(&self.background[..W]),
+                }
+                return;
+            }
+        }
         let axes = [
             axis_stencil(interp, u.x, cells[0]),
             axis_stencil(interp, u.y, cells[1]),
@@ -72,7 +90,11 @@ impl Cache {
             return Cache::interpolate::<W, GRADIENT>(&stencil, value, gradient);
         }
         // Most stencils lie inside one brick: read it with fixed strides.
-        let brick = self.brick_values(self.shape.brick_index(first));
+        let Some(brick) = self.brick(self.shape.brick_index(first)).values.as_deref() else {
+            // A uniform brick reads its value, with no slope.
+            value.copy_from_slice(&self.background[..W]);
+            return;
+        };
         let base = axes.map(|axis| axis.start % BRICK);
         let base = base[0] + BRICK * (base[1] + BRICK * base[2]);
         match axes.map(|axis| axis.len) {

@@ -27,7 +27,7 @@ impl Periodic {
     fn new(orientation: DVec3) -> Periodic {
         let domain = Domain::with_cells(
             DVec3::new(-0.3, 0.2, 0.1),
-            DVec3::new(1.2, 1.0, 0.8),
+            DVec3::new(1.1, 1.0, 0.7),
             orientation,
             0.1,
             0.1,
