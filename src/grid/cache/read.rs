@@ -60,10 +60,11 @@ impl Cache {
         gradient: &mut [[f64; 3]; W],
     ) {
         let cells = self.shape.cells;
-        if !GRADIENT && u.floor() == u && u.cmpge(DVec3::ZERO).all() {
+        // Truncation, not `floor`: without SSE4.1 `floor` is a library call.
+        let [i, j, k] = [u.x as usize, u.y as usize, u.z as usize];
+        if !GRADIENT && u.cmpge(DVec3::ZERO).all() && DVec3::new(i as f64, j as f64, k as f64) == u {
             // Exactly on a cell centre (as when a solve or a cache over the same cells reads
             // this one): every rule's weights are 1 there and 0 elsewhere.
-            let [i, j, k] = [u.x as usize, u.y as usize, u.z as usize];
             if i < cells[0] && j < cells[1] && k < cells[2] {
                 let index = self.shape.brick_index([i / BRICK, j / BRICK, k / BRICK]);
                 match self.brick(index).values.as_deref() {
