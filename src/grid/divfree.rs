@@ -38,10 +38,15 @@ pub struct DivergenceFree {
     domain: Domain,
     source: Mutex<Option<Arc<dyn FieldSampler>>>,
     solved: OnceLock<Result<DenseGrid, Failure>>,
+    /// Held while solving, so one thread solves and the others wait for its result.
+    solving: Mutex<()>,
     identity: u64,
     label: String,
     profile: Arc<GridStats>,
 }
+
+/// The failure of a solve stopped by an interrupt (Ctrl-C, a watchdog).
+const INTERRUPTED: &str = "interrupted";
 
 /// Bricks of 8³ cells in a domain, the unit in which `--profile` counts grid work.
 fn bricks_of(cells: [usize; 3]) -> u64 {
@@ -78,6 +83,7 @@ impl DivergenceFree {
             domain,
             source: Mutex::new(Some(source)),
             solved: OnceLock::new(),
+            solving: Mutex::new(()),
             identity: crate::grid::next_identity(),
             label,
             profile,
@@ -91,7 +97,7 @@ impl DivergenceFree {
         if i >= cells[0] || j >= cells[1] || k >= cells[2] {
             return None;
         }
-        let grid = self.solved().as_ref().ok()?;
+        let grid = self.solved().ok()?;
         Some(DVec3::from_slice(grid.cell(i, j, k)))
     }
 
@@ -100,27 +106,50 @@ impl DivergenceFree {
         self.solved.get().is_some()
     }
 
-    fn solved(&self) -> &Result<DenseGrid, Failure> {
-        self.solved.get_or_init(|| {
-            if rayon::current_thread_index().is_some() {
-                // Inside a parallel evaluation: solve on a pool of our own, from a thread
-                // that is no worker of the outer pool, so waiting never steals outer tasks.
-                let threads = rayon::current_num_threads();
-                std::thread::scope(|scope| {
-                    scope
-                        .spawn(|| {
-                            match rayon::ThreadPoolBuilder::new().num_threads(threads).build() {
-                                Ok(pool) => pool.install(|| self.run()),
-                                Err(_) => self.run(),
-                            }
-                        })
-                        .join()
-                        .unwrap_or_else(|_| Err(Failure::new("the fftdivfree solve failed")))
-                })
-            } else {
-                self.run()
-            }
-        })
+    /// The solved grid, solving it first. An interrupted solve is not kept: the next read
+    /// solves again (the REPL's Ctrl-C leaves the simulation usable).
+    fn solved(&self) -> Result<&DenseGrid, Failure> {
+        fn kept(result: &Result<DenseGrid, Failure>) -> Result<&DenseGrid, Failure> {
+            result.as_ref().map_err(Clone::clone)
+        }
+        if let Some(result) = self.solved.get() {
+            return kept(result);
+        }
+        let _turn = self
+            .solving
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner());
+        if let Some(result) = self.solved.get() {
+            return kept(result);
+        }
+        let result = if rayon::current_thread_index().is_some() {
+            // Inside a parallel evaluation: solve on a pool of our own, from a thread that is
+            // no worker of the outer pool, so waiting never steals outer tasks.
+            let threads = rayon::current_num_threads();
+            std::thread::scope(|scope| {
+                scope
+                    .spawn(
+                        || match rayon::ThreadPoolBuilder::new().num_threads(threads).build() {
+                            Ok(pool) => pool.install(|| self.run()),
+                            Err(_) => self.run(),
+                        },
+                    )
+                    .join()
+                    .unwrap_or_else(|_| Err(Failure::new("the fftdivfree solve failed")))
+            })
+        } else {
+            self.run()
+        };
+        if let Err(failure) = &result
+            && failure.message == INTERRUPTED
+        {
+            return Err(failure.clone());
+        }
+        let _ = self.solved.set(result);
+        match self.solved.get() {
+            Some(result) => kept(result),
+            None => Err(Failure::new("the fftdivfree solve failed")),
+        }
     }
 
     fn source(&self) -> Option<Arc<dyn FieldSampler>> {
@@ -136,6 +165,9 @@ impl DivergenceFree {
             return Err(Failure::new("fftdivfree lost its input before solving"));
         };
         let result = self.project(source.as_ref());
+        if matches!(&result, Err(f) if f.message == INTERRUPTED) {
+            return result;
+        }
         // The input (and the grids it reads, such as the previous frame's velocity) is no
         // longer needed, whatever the outcome.
         *self
@@ -176,6 +208,9 @@ impl DivergenceFree {
                     )
                 },
                 |(evaluator, [xs, ys, zs], out), (row, ((rx, ry), rz))| {
+                    if crate::interrupt::requested() {
+                        return;
+                    }
                     let (j, k) = (row % ny, row / ny);
                     let mut start = 0;
                     while start < nx {
@@ -193,6 +228,9 @@ impl DivergenceFree {
                     }
                 },
             );
+        if crate::interrupt::requested() {
+            return Err(Failure::new(INTERRUPTED));
+        }
         if let Some(at) = planes.iter().position(|v| !v.is_finite()) {
             let cell = at % n;
             let (i, j, k) = (cell % nx, cell / nx % ny, cell / (nx * ny));
@@ -321,7 +359,7 @@ impl GridSource for DivergenceFree {
     }
 
     fn solve(&self) -> Outcome<()> {
-        self.solved().as_ref().map(|_| ()).map_err(Clone::clone)
+        self.solved().map(|_| ())
     }
 }
 
