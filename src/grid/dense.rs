@@ -11,9 +11,10 @@
 //! weight bound like a cache's.
 
 use crate::grid::domain::Domain;
-use crate::grid::interp::{AxisStencil, BORDER_WEIGHT_BOUND, CUBIC_WEIGHT_BOUND, axis_stencil};
+use crate::grid::interp::{AxisStencil, axis_stencil};
+use crate::grid::reach;
 use crate::sample::{Aabb, Interp};
-use glam::{BVec3, DMat3, DVec3};
+use glam::{DMat3, DVec3};
 use rayon::prelude::*;
 
 /// Cells along each edge of a block of the range table.
@@ -288,55 +289,13 @@ impl DenseGrid {
         if region.is_empty() {
             return background;
         }
-        let cells = self.cells.map(|n| n as f64);
-        let (mut lo, mut hi, mut leaves) = (
-            DVec3::splat(f64::INFINITY),
-            DVec3::splat(f64::NEG_INFINITY),
-            false,
-        );
-        if region.is_finite() {
-            for n in 0..8 {
-                let pick = BVec3::new(n & 1 != 0, n & 2 != 0, n & 4 != 0);
-                let corner = DVec3::select(pick, region.max, region.min);
-                leaves |= self.index_coords(corner).is_none();
-                let u = self.to_local * (corner - self.domain.origin) / self.domain.cell
-                    - DVec3::splat(0.5);
-                lo = lo.min(u);
-                hi = hi.max(u);
-            }
-        } else {
-            (lo, hi, leaves) = (
-                DVec3::splat(f64::NEG_INFINITY),
-                DVec3::splat(f64::INFINITY),
-                true,
-            );
-        }
-        let mut first = [0usize; 3];
-        let mut last = [0usize; 3];
-        let mut spread = 1.0;
-        for a in 0..3 {
-            let low = lo[a].max(-0.5);
-            let high = hi[a].min(cells[a] - 0.5);
-            if low.partial_cmp(&high).is_none_or(|o| o.is_gt()) {
-                return background;
-            }
-            // A cubic stencil reads one cell below floor(u) and two above.
-            let first_cell = (low.floor() - 1.0).max(0.0) as usize;
-            let last_cell = ((high.floor() + 2.0).max(0.0) as usize).min(self.cells[a] - 1);
-            first[a] = first_cell / BLOCK;
-            last[a] = last_cell / BLOCK;
-            spread *= if self.cells[a] == 1 {
-                1.0
-            } else if low >= 0.0 && high <= cells[a] - 1.0 {
-                CUBIC_WEIGHT_BOUND
-            } else {
-                BORDER_WEIGHT_BOUND
-            };
-        }
+        let Some(reach) = reach::reach(&self.domain.lattice(), region) else {
+            return background;
+        };
         let mut samples = vec![(f64::INFINITY, f64::NEG_INFINITY); self.width];
-        for bz in first[2]..=last[2] {
-            for by in first[1]..=last[1] {
-                for bx in first[0]..=last[0] {
+        for bz in reach.first[2] / BLOCK..=reach.last[2] / BLOCK {
+            for by in reach.first[1] / BLOCK..=reach.last[1] / BLOCK {
+                for bx in reach.first[0] / BLOCK..=reach.last[0] / BLOCK {
                     let block = bx + self.blocks[0] * (by + self.blocks[1] * bz);
                     for (c, s) in samples.iter_mut().enumerate() {
                         let r = self.block_ranges[block * self.width + c];
@@ -346,25 +305,7 @@ impl DenseGrid {
                 }
             }
         }
-        samples
-            .into_iter()
-            .zip(&self.background)
-            .map(|((low, high), &b)| {
-                let (low, high) = if low == high {
-                    (low, high)
-                } else {
-                    let middle = 0.5 * (low + high);
-                    let rounding = 128.0 * f64::EPSILON * spread * low.abs().max(high.abs());
-                    let radius = 0.5 * (high - low) * spread + rounding;
-                    (middle - radius, middle + radius)
-                };
-                if leaves {
-                    (low.min(b), high.max(b))
-                } else {
-                    (low, high)
-                }
-            })
-            .collect()
+        reach::widen(samples, &self.background, &reach)
     }
 }
 

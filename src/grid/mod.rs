@@ -8,6 +8,7 @@ pub mod domain;
 pub mod fft;
 pub mod interp;
 pub mod profile;
+pub mod reach;
 pub mod vdb;
 pub mod vdb_cache;
 

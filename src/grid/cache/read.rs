@@ -20,7 +20,8 @@
 mod tests;
 
 use super::{BRICK, Cache, MAX_WIDTH, lock};
-use crate::grid::interp::{AxisStencil, BORDER_WEIGHT_BOUND, CUBIC_WEIGHT_BOUND, axis_stencil};
+use crate::grid::interp::{AxisStencil, axis_stencil};
+use crate::grid::reach;
 use crate::sample::{Aabb, GridSource, Interp, Lattice};
 use glam::{BVec3, DVec3};
 use std::sync::Arc;
@@ -62,7 +63,8 @@ impl Cache {
         let cells = self.shape.cells;
         // Truncation, not `floor`: without SSE4.1 `floor` is a library call.
         let [i, j, k] = [u.x as usize, u.y as usize, u.z as usize];
-        if !GRADIENT && u.cmpge(DVec3::ZERO).all() && DVec3::new(i as f64, j as f64, k as f64) == u {
+        if !GRADIENT && u.cmpge(DVec3::ZERO).all() && DVec3::new(i as f64, j as f64, k as f64) == u
+        {
             // Exactly on a cell centre (as when a solve or a cache over the same cells reads
             // this one): every rule's weights are 1 there and 0 elsewhere.
             if i < cells[0] && j < cells[1] && k < cells[2] {
@@ -345,16 +347,7 @@ impl Cache {
         if !region.is_finite() {
             return vec![(f64::NEG_INFINITY, f64::INFINITY); self.width];
         }
-        let mut lo = DVec3::splat(f64::INFINITY);
-        let mut hi = DVec3::splat(f64::NEG_INFINITY);
-        for n in 0..8 {
-            let pick = BVec3::new(n & 1 != 0, n & 2 != 0, n & 4 != 0);
-            let corner = DVec3::select(pick, region.max, region.min);
-            let u = self.to_local * (corner - self.domain.origin) / self.domain.cell
-                - DVec3::splat(0.5);
-            lo = lo.min(u);
-            hi = hi.max(u);
-        }
+        let (lo, hi, _) = reach::index_box(&self.domain.lattice(), region);
         let mut widen = 1.0;
         for a in 0..3 {
             let last = (self.shape.cells[a] - 1) as f64;
@@ -392,43 +385,6 @@ impl Cache {
                 }
             })
             .collect()
-    }
-
-    /// Per axis: the index-space interval of `region` clamped to the domain box, or `None`
-    /// when the region misses the box; and whether the region reaches outside the domain.
-    fn region_in_index_space(&self, region: &Aabb) -> (Option<[(f64, f64); 3]>, bool) {
-        let cells = self.shape.cells.map(|n| n as f64);
-        let (lo, hi, leaves) = if region.is_finite() {
-            let mut lo = DVec3::splat(f64::INFINITY);
-            let mut hi = DVec3::splat(f64::NEG_INFINITY);
-            let mut leaves = false;
-            for n in 0..8 {
-                let pick = BVec3::new(n & 1 != 0, n & 2 != 0, n & 4 != 0);
-                let corner = DVec3::select(pick, region.max, region.min);
-                leaves |= self.index_coords(corner).is_none();
-                let u = self.to_local * (corner - self.domain.origin) / self.domain.cell
-                    - DVec3::splat(0.5);
-                lo = lo.min(u);
-                hi = hi.max(u);
-            }
-            (lo, hi, leaves)
-        } else {
-            (
-                DVec3::splat(f64::NEG_INFINITY),
-                DVec3::splat(f64::INFINITY),
-                true,
-            )
-        };
-        let mut axes = [(0.0, 0.0); 3];
-        for a in 0..3 {
-            let low = lo[a].max(-0.5);
-            let high = hi[a].min(cells[a] - 0.5);
-            if low.partial_cmp(&high).is_none_or(|order| order.is_gt()) {
-                return (None, leaves);
-            }
-            axes[a] = (low, high);
-        }
-        (Some(axes), leaves)
     }
 }
 
@@ -491,32 +447,13 @@ impl GridSource for Cache {
         if region.is_empty() {
             return background;
         }
-        let (axes, leaves) = self.region_in_index_space(region);
-        let Some(axes) = axes else {
+        let Some(reach) = reach::reach(&self.domain.lattice(), region) else {
             return background;
         };
-        let mut first_brick = [0; 3];
-        let mut last_brick = [0; 3];
-        let mut spread = 1.0;
-        for (a, &(low, high)) in axes.iter().enumerate() {
-            let cells = self.shape.cells[a];
-            // A cubic stencil reads one cell below floor(u) and two above.
-            let first = (low.floor() - 1.0).max(0.0) as usize;
-            let last = ((high.floor() + 2.0).max(0.0) as usize).min(cells - 1);
-            first_brick[a] = first / BRICK;
-            last_brick[a] = last / BRICK;
-            spread *= if cells == 1 {
-                1.0
-            } else if low >= 0.0 && high <= (cells - 1) as f64 {
-                CUBIC_WEIGHT_BOUND
-            } else {
-                BORDER_WEIGHT_BOUND
-            };
-        }
         let mut samples = vec![(f64::INFINITY, f64::NEG_INFINITY); self.width];
-        for bz in first_brick[2]..=last_brick[2] {
-            for by in first_brick[1]..=last_brick[1] {
-                for bx in first_brick[0]..=last_brick[0] {
+        for bz in reach.first[2] / BRICK..=reach.last[2] / BRICK {
+            for by in reach.first[1] / BRICK..=reach.last[1] / BRICK {
+                for bx in reach.first[0] / BRICK..=reach.last[0] / BRICK {
                     let brick = self.brick(self.shape.brick_index([bx, by, bz]));
                     for (c, (low, high)) in samples.iter_mut().enumerate() {
                         *low = low.min(f64::from(brick.range[c].0));
@@ -525,27 +462,6 @@ impl GridSource for Cache {
                 }
             }
         }
-        samples
-            .into_iter()
-            .zip(&self.background)
-            .map(|((low, high), &b)| {
-                let (low, high) = if low == high {
-                    (low, high)
-                } else if low.is_finite() && high.is_finite() {
-                    let middle = 0.5 * (low + high);
-                    // Room for the rounding of a sum of up to 64 weighted samples.
-                    let rounding = 128.0 * f64::EPSILON * spread * low.abs().max(high.abs());
-                    let radius = 0.5 * (high - low) * spread + rounding;
-                    (middle - radius, middle + radius)
-                } else {
-                    (f64::NEG_INFINITY, f64::INFINITY)
-                };
-                if leaves {
-                    (low.min(b), high.max(b))
-                } else {
-                    (low, high)
-                }
-            })
-            .collect()
+        reach::widen(samples, &self.background, &reach)
     }
 }

@@ -1,0 +1,110 @@
+//! Reach: which cells of a grid a region of space can read, and the range of values the
+//! interpolant can take there — the interval form of a grid read, shared by caches and dense
+//! solve results.
+//!
+//! The one key decision: the range is computed from the *samples* the region's stencils touch,
+//! then widened about its midpoint by the largest sum of absolute interpolation weights that
+//! can occur there (`interp`'s bounds: cubic weights go negative, the border extrapolates), so
+//! it is conservative for every interpolation rule; a region whose samples are all one value
+//! gets exactly that value, so empty space stays exactly empty.
+
+use crate::grid::interp::{BORDER_WEIGHT_BOUND, CUBIC_WEIGHT_BOUND};
+use crate::sample::{Aabb, Lattice};
+use glam::{BVec3, DVec3};
+
+/// The cells a region reads along each axis and the weight bound that applies there.
+pub struct Reach {
+    /// First and last cell along each axis (inclusive).
+    pub first: [usize; 3],
+    pub last: [usize; 3],
+    /// The product over axes of the largest sum of absolute weights.
+    pub spread: f64,
+    /// Whether the region reaches outside the domain box (so the background is in range).
+    pub leaves: bool,
+}
+
+/// The continuous index coordinates of the corners of `region`, as a box (`lo`, `hi`), and
+/// whether any corner lies outside the domain box. An unbounded region spans everything.
+pub fn index_box(lattice: &Lattice, region: &Aabb) -> (DVec3, DVec3, bool) {
+    if !region.is_finite() {
+        return (
+            DVec3::splat(f64::NEG_INFINITY),
+            DVec3::splat(f64::INFINITY),
+            true,
+        );
+    }
+    let to_local = lattice.rotation.transpose();
+    let lengths = lattice.cell * DVec3::from_array(lattice.counts.map(|n| n as f64));
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    let mut leaves = false;
+    for n in 0..8 {
+        let pick = BVec3::new(n & 1 != 0, n & 2 != 0, n & 4 != 0);
+        let corner = DVec3::select(pick, region.max, region.min);
+        let local = to_local * (corner - lattice.origin);
+        leaves |= !(local.cmpge(DVec3::ZERO).all() && local.cmple(lengths).all());
+        let u = local / lattice.cell - DVec3::splat(0.5);
+        lo = lo.min(u);
+        hi = hi.max(u);
+    }
+    (lo, hi, leaves)
+}
+
+/// What `region` reads of a grid on `lattice`; `None` when it misses the domain box.
+pub fn reach(lattice: &Lattice, region: &Aabb) -> Option<Reach> {
+    let (lo, hi, leaves) = index_box(lattice, region);
+    let mut first = [0usize; 3];
+    let mut last = [0usize; 3];
+    let mut spread = 1.0;
+    for a in 0..3 {
+        let cells = lattice.counts[a];
+        let low = lo[a].max(-0.5);
+        let high = hi[a].min(cells as f64 - 0.5);
+        if low.partial_cmp(&high).is_none_or(|o| o.is_gt()) {
+            return None;
+        }
+        // A cubic stencil reads one cell below floor(u) and two above.
+        first[a] = (low.floor() - 1.0).max(0.0) as usize;
+        last[a] = ((high.floor() + 2.0).max(0.0) as usize).min(cells - 1);
+        spread *= if cells == 1 {
+            1.0
+        } else if low >= 0.0 && high <= (cells - 1) as f64 {
+            CUBIC_WEIGHT_BOUND
+        } else {
+            BORDER_WEIGHT_BOUND
+        };
+    }
+    Some(Reach {
+        first,
+        last,
+        spread,
+        leaves,
+    })
+}
+
+/// The interpolant's range from the samples' range per component: widened by `spread` (and
+/// the rounding of a sum of up to 64 weighted samples), unbounded if a sample is not finite,
+/// joined with the background where the region leaves the domain.
+pub fn widen(samples: Vec<(f64, f64)>, background: &[f64], reach: &Reach) -> Vec<(f64, f64)> {
+    samples
+        .into_iter()
+        .zip(background)
+        .map(|((low, high), &b)| {
+            let (low, high) = if low == high {
+                (low, high)
+            } else if low.is_finite() && high.is_finite() {
+                let middle = 0.5 * (low + high);
+                let rounding = 128.0 * f64::EPSILON * reach.spread * low.abs().max(high.abs());
+                let radius = 0.5 * (high - low) * reach.spread + rounding;
+                (middle - radius, middle + radius)
+            } else {
+                (f64::NEG_INFINITY, f64::INFINITY)
+            };
+            if reach.leaves {
+                (low.min(b), high.max(b))
+            } else {
+                (low, high)
+            }
+        })
+        .collect()
+}
