@@ -24,7 +24,7 @@
 use super::node::{self, Kernel, NodeRef, Op};
 use super::{Field, FieldKind};
 use crate::failure::{Failure, Outcome};
-use crate::sample::GridSource;
+use crate::sample::{GridSource, Lattice};
 use std::sync::Arc;
 
 /// How `advect` moves values along the velocity.
@@ -130,10 +130,21 @@ pub fn advect_with(
         Scheme::MacCormack => predicted.add(&error)?,
         _ => resample(&f.add(&error)?, grid.as_ref())?.compose(&back)?,
     };
-    Ok(match neighbour_limits(f, grid.as_ref(), &back) {
+    let corrected = match neighbour_limits(f, grid.as_ref(), &back) {
         Some(limits) => limits.clamp(&corrected),
         None => corrected,
-    })
+    };
+    // Where a trace leaves a grid that reads its background outside, the correction would
+    // compare the value here with nothing and put back density the flow has carried out:
+    // there the scheme falls back to the plain back trace (as Selle et al. do at boundaries).
+    match grid.lattice() {
+        Some(lattice) if !lattice.extrapolates => {
+            let margin = |at: &Field| span_margin(&lattice, &index_coordinates(&lattice, at));
+            let inside = node::binary(node::BinOp::Min, margin(&back), margin(&forward));
+            Field::select(&Field::scalar(inside), &corrected, &predicted)
+        }
+        _ => Ok(corrected),
+    }
 }
 
 /// The grid `f` reads, when `f` is exactly one read of a grid at the position (a `cacheread`).
@@ -188,16 +199,13 @@ impl Limits {
     }
 }
 
-/// The limits of the eight samples of `grid` (which `f` reads) around the points `at`: the
-/// linear stencil's cells, found by `floor` in the grid's index space.
-fn neighbour_limits(f: &Field, grid: &dyn GridSource, at: &Field) -> Option<Limits> {
-    let lattice = grid.lattice()?;
+/// Index coordinates of the points `at` in a grid: `R^T (p − origin) / cell − ½`.
+fn index_coordinates(lattice: &Lattice, at: &Field) -> Vec<NodeRef> {
     let at = at.components();
-    // Index coordinates of the back-traced point: R^T (p − origin) / cell − ½.
     let relative: Vec<NodeRef> = (0..3)
         .map(|i| node::sub(at[i].clone(), node::constant(lattice.origin[i])))
         .collect();
-    let index: Vec<NodeRef> = (0..3)
+    (0..3)
         .map(|a| {
             let axis = lattice.rotation.col(a);
             let local =
@@ -207,7 +215,30 @@ fn neighbour_limits(f: &Field, grid: &dyn GridSource, at: &Field) -> Option<Limi
                 node::constant(0.5),
             )
         })
-        .collect();
+        .collect()
+}
+
+/// `>= 0` where index coordinates lie within the span of cell centres on every axis: the
+/// smallest over axes of `min(u, n − 1 − u)`.
+fn span_margin(lattice: &Lattice, index: &[NodeRef]) -> NodeRef {
+    (0..3)
+        .map(|a| {
+            let last = lattice.counts[a] as f64 - 1.0;
+            node::binary(
+                node::BinOp::Min,
+                index[a].clone(),
+                node::sub(node::constant(last), index[a].clone()),
+            )
+        })
+        .reduce(|a, b| node::binary(node::BinOp::Min, a, b))
+        .unwrap_or_else(|| node::constant(0.0))
+}
+
+/// The limits of the eight samples of `grid` (which `f` reads) around the points `at`: the
+/// linear stencil's cells, found by `floor` in the grid's index space.
+fn neighbour_limits(f: &Field, grid: &dyn GridSource, at: &Field) -> Option<Limits> {
+    let lattice = grid.lattice()?;
+    let index = index_coordinates(&lattice, at);
     // The cell at or below, kept so that the cell above exists.
     let below: Vec<NodeRef> = (0..3)
         .map(|a| {
@@ -261,20 +292,7 @@ fn neighbour_limits(f: &Field, grid: &dyn GridSource, at: &Field) -> Option<Limi
             });
         }
     }
-    let applies = lattice.extrapolates.then(|| {
-        // Inside the span of cell centres on every axis: min over axes of min(u, n − 1 − u).
-        let margins = (0..3).map(|a| {
-            let last = lattice.counts[a] as f64 - 1.0;
-            node::binary(
-                node::BinOp::Min,
-                index[a].clone(),
-                node::sub(node::constant(last), index[a].clone()),
-            )
-        });
-        margins
-            .reduce(|a, b| node::binary(node::BinOp::Min, a, b))
-            .unwrap_or_else(|| node::constant(0.0))
-    });
+    let applies = lattice.extrapolates.then(|| span_margin(&lattice, &index));
     Some(Limits {
         low: low.into_iter().collect::<Option<_>>()?,
         high: high.into_iter().collect::<Option<_>>()?,

@@ -12,6 +12,7 @@
 
 use crate::grid::domain::Domain;
 use crate::grid::interp::{AxisStencil, axis_stencil};
+use crate::grid::points::{self, PointRead};
 use crate::grid::reach;
 use crate::sample::{Aabb, Interp};
 use glam::{DMat3, DVec3};
@@ -111,7 +112,7 @@ impl DenseGrid {
 
     /// Continuous cell-index coordinates of a world point inside the box.
     #[inline]
-    fn index_coords(&self, p: DVec3) -> Option<DVec3> {
+    fn index_coords_inside(&self, p: DVec3) -> Option<DVec3> {
         let offset = p - self.domain.origin;
         // Most simulation domains are axis-aligned: skip the rotation there.
         let local = if self.axis_aligned {
@@ -172,7 +173,7 @@ impl DenseGrid {
     }
 
     #[inline(always)]
-    fn read_point<const W: usize, const GRADIENT: bool>(
+    fn read_general<const W: usize, const GRADIENT: bool>(
         &self,
         interp: Interp,
         u: DVec3,
@@ -209,62 +210,9 @@ impl DenseGrid {
         }
     }
 
-    fn sample_block<const W: usize>(
-        &self,
-        interp: Interp,
-        xs: &[f64],
-        ys: &[f64],
-        zs: &[f64],
-        out: &mut [f64],
-    ) {
-        let n = xs.len();
-        let mut unused = [[0.0; 3]; W];
-        for i in 0..n {
-            let mut value = [0.0; W];
-            match self.index_coords(DVec3::new(xs[i], ys[i], zs[i])) {
-                Some(u) => self.read_point::<W, false>(interp, u, &mut value, &mut unused),
-                None => value.copy_from_slice(&self.background),
-            }
-            for c in 0..W {
-                out[c * n + i] = value[c];
-            }
-        }
-    }
-
-    fn gradient_block<const W: usize>(
-        &self,
-        interp: Interp,
-        xs: &[f64],
-        ys: &[f64],
-        zs: &[f64],
-        out: &mut [f64],
-    ) {
-        let n = xs.len();
-        let rotation = self.domain.rotation;
-        let inverse_cell = self.domain.cell.recip();
-        for i in 0..n {
-            let mut value = [0.0; W];
-            let mut gradient = [[0.0; 3]; W];
-            if let Some(u) = self.index_coords(DVec3::new(xs[i], ys[i], zs[i])) {
-                self.read_point::<W, true>(interp, u, &mut value, &mut gradient);
-            }
-            for (c, g) in gradient.iter().enumerate() {
-                // The chain rule through the domain's placement: d u_a / d x_j = R[j][a] / h_a.
-                let world = rotation * (DVec3::from_array(*g) * inverse_cell);
-                for j in 0..3 {
-                    out[(c * 3 + j) * n + i] = world[j];
-                }
-            }
-        }
-    }
-
     /// Interpolated values at world points, component-major (`out[c * n + i]`).
     pub fn sample(&self, interp: Interp, xs: &[f64], ys: &[f64], zs: &[f64], out: &mut [f64]) {
-        match self.width {
-            1 => self.sample_block::<1>(interp, xs, ys, zs, out),
-            3 => self.sample_block::<3>(interp, xs, ys, zs, out),
-            _ => self.sample_block::<9>(interp, xs, ys, zs, out),
-        }
+        points::values_of(self, self.width, interp, xs, ys, zs, out);
     }
 
     /// Derivatives of the interpolant, `out[(c * 3 + j) * n + i]`; zero outside the box.
@@ -276,11 +224,7 @@ impl DenseGrid {
         zs: &[f64],
         out: &mut [f64],
     ) {
-        match self.width {
-            1 => self.gradient_block::<1>(interp, xs, ys, zs, out),
-            3 => self.gradient_block::<3>(interp, xs, ys, zs, out),
-            _ => self.gradient_block::<9>(interp, xs, ys, zs, out),
-        }
+        points::gradients_of(self, self.width, interp, xs, ys, zs, out);
     }
 
     /// A conservative range per component of what the interpolant reaches in `region`.
@@ -306,6 +250,32 @@ impl DenseGrid {
             }
         }
         reach::widen(samples, &self.background, &reach)
+    }
+}
+
+impl PointRead for DenseGrid {
+    #[inline(always)]
+    fn index_of(&self, p: DVec3) -> Option<DVec3> {
+        self.index_coords_inside(p)
+    }
+
+    #[inline(always)]
+    fn read<const W: usize, const GRADIENT: bool>(
+        &self,
+        interp: Interp,
+        u: DVec3,
+        value: &mut [f64; W],
+        gradient: &mut [[f64; 3]; W],
+    ) {
+        self.read_general::<W, GRADIENT>(interp, u, value, gradient);
+    }
+
+    fn outside(&self) -> &[f64] {
+        &self.background
+    }
+
+    fn placement(&self) -> (DMat3, DVec3) {
+        (self.domain.rotation, self.inverse_cell)
     }
 }
 

@@ -7,6 +7,7 @@ pub mod divfree;
 pub mod domain;
 pub mod fft;
 pub mod interp;
+pub mod points;
 pub mod profile;
 pub mod reach;
 pub mod vdb;

@@ -19,11 +19,12 @@
 #[cfg(test)]
 mod tests;
 
-use super::{BRICK, Cache, MAX_WIDTH, lock};
+use super::{BRICK, Cache, lock};
 use crate::grid::interp::{AxisStencil, axis_stencil};
+use crate::grid::points::{self, PointRead};
 use crate::grid::reach;
 use crate::sample::{Aabb, GridSource, Interp, Lattice};
-use glam::{BVec3, DVec3};
+use glam::{BVec3, DMat3, DVec3};
 use std::sync::Arc;
 
 /// The cells one point reads, resolved to brick storage.
@@ -236,73 +237,6 @@ impl Cache {
         }
     }
 
-    /// Continuous cell-index coordinates of any world point; outside the box the stencils
-    /// extrapolate linearly from the two outermost cells.
-    #[inline]
-    fn index_coords_anywhere(&self, p: DVec3) -> Option<DVec3> {
-        let local = self.to_local * (p - self.domain.origin);
-        Some(local / self.domain.cell - DVec3::splat(0.5))
-    }
-
-    #[inline]
-    fn coords<const EXTRAPOLATE: bool>(&self, p: DVec3) -> Option<DVec3> {
-        if EXTRAPOLATE {
-            self.index_coords_anywhere(p)
-        } else {
-            self.index_coords(p)
-        }
-    }
-
-    fn sample_block<const W: usize, const EXTRAPOLATE: bool>(
-        &self,
-        interp: Interp,
-        xs: &[f64],
-        ys: &[f64],
-        zs: &[f64],
-        out: &mut [f64],
-    ) {
-        let n = xs.len();
-        let mut unused = [[0.0; 3]; W];
-        for i in 0..n {
-            let mut value = [0.0; W];
-            match self.coords::<EXTRAPOLATE>(DVec3::new(xs[i], ys[i], zs[i])) {
-                Some(u) => self.read_point::<W, false>(interp, u, &mut value, &mut unused),
-                None => value.copy_from_slice(&self.background),
-            }
-            for c in 0..W {
-                out[c * n + i] = value[c];
-            }
-        }
-    }
-
-    fn gradient_block<const W: usize, const EXTRAPOLATE: bool>(
-        &self,
-        interp: Interp,
-        xs: &[f64],
-        ys: &[f64],
-        zs: &[f64],
-        out: &mut [f64],
-    ) {
-        let n = xs.len();
-        // d(index u_a)/d(world x_j) = rotation[a][j] / cell_a: the chain rule through the
-        // domain's placement, applied once per point to the index-space derivative.
-        let rotation = self.domain.rotation;
-        let inverse_cell = self.domain.cell.recip();
-        for i in 0..n {
-            let mut value = [0.0; W];
-            let mut gradient = [[0.0; 3]; W];
-            if let Some(u) = self.coords::<EXTRAPOLATE>(DVec3::new(xs[i], ys[i], zs[i])) {
-                self.read_point::<W, true>(interp, u, &mut value, &mut gradient);
-            }
-            for (c, g) in gradient.iter().enumerate() {
-                let world = rotation * (DVec3::from_array(*g) * inverse_cell);
-                for j in 0..3 {
-                    out[(c * 3 + j) * n + i] = world[j];
-                }
-            }
-        }
-    }
-
     /// Interpolated values at world points, extrapolating linearly outside the domain box
     /// from the two outermost cells along each axis (instead of reading the background).
     pub fn sample_extrapolated(
@@ -313,11 +247,7 @@ impl Cache {
         zs: &[f64],
         out: &mut [f64],
     ) {
-        match self.width {
-            1 => self.sample_block::<1, true>(interp, xs, ys, zs, out),
-            3 => self.sample_block::<3, true>(interp, xs, ys, zs, out),
-            _ => self.sample_block::<MAX_WIDTH, true>(interp, xs, ys, zs, out),
-        }
+        points::values_of(&Anywhere(self), self.width, interp, xs, ys, zs, out);
     }
 
     /// The exact derivative of [`Cache::sample_extrapolated`].
@@ -329,11 +259,7 @@ impl Cache {
         zs: &[f64],
         out: &mut [f64],
     ) {
-        match self.width {
-            1 => self.gradient_block::<1, true>(interp, xs, ys, zs, out),
-            3 => self.gradient_block::<3, true>(interp, xs, ys, zs, out),
-            _ => self.gradient_block::<MAX_WIDTH, true>(interp, xs, ys, zs, out),
-        }
+        points::gradients_of(&Anywhere(self), self.width, interp, xs, ys, zs, out);
     }
 
     /// A conservative range of [`Cache::sample_extrapolated`] over `region`. Inside the box it
@@ -388,6 +314,64 @@ impl Cache {
     }
 }
 
+impl PointRead for Cache {
+    #[inline(always)]
+    fn index_of(&self, p: DVec3) -> Option<DVec3> {
+        self.index_coords(p)
+    }
+
+    #[inline(always)]
+    fn read<const W: usize, const GRADIENT: bool>(
+        &self,
+        interp: Interp,
+        u: DVec3,
+        value: &mut [f64; W],
+        gradient: &mut [[f64; 3]; W],
+    ) {
+        self.read_point::<W, GRADIENT>(interp, u, value, gradient);
+    }
+
+    fn outside(&self) -> &[f64] {
+        &self.background
+    }
+
+    fn placement(&self) -> (DMat3, DVec3) {
+        (self.domain.rotation, self.domain.cell.recip())
+    }
+}
+
+/// A cache read anywhere: outside the box the stencils extrapolate linearly from the two
+/// outermost cells.
+struct Anywhere<'a>(&'a Cache);
+
+impl PointRead for Anywhere<'_> {
+    #[inline(always)]
+    fn index_of(&self, p: DVec3) -> Option<DVec3> {
+        let cache = self.0;
+        let local = cache.to_local * (p - cache.domain.origin);
+        Some(local / cache.domain.cell - DVec3::splat(0.5))
+    }
+
+    #[inline(always)]
+    fn read<const W: usize, const GRADIENT: bool>(
+        &self,
+        interp: Interp,
+        u: DVec3,
+        value: &mut [f64; W],
+        gradient: &mut [[f64; 3]; W],
+    ) {
+        self.0.read_point::<W, GRADIENT>(interp, u, value, gradient);
+    }
+
+    fn outside(&self) -> &[f64] {
+        &self.0.background
+    }
+
+    fn placement(&self) -> (DMat3, DVec3) {
+        self.0.placement()
+    }
+}
+
 impl GridSource for Cache {
     fn width(&self) -> usize {
         self.width
@@ -402,19 +386,11 @@ impl GridSource for Cache {
     }
 
     fn sample(&self, interp: Interp, xs: &[f64], ys: &[f64], zs: &[f64], out: &mut [f64]) {
-        match self.width {
-            1 => self.sample_block::<1, false>(interp, xs, ys, zs, out),
-            3 => self.sample_block::<3, false>(interp, xs, ys, zs, out),
-            _ => self.sample_block::<MAX_WIDTH, false>(interp, xs, ys, zs, out),
-        }
+        points::values_of(self, self.width, interp, xs, ys, zs, out);
     }
 
     fn sample_gradient(&self, interp: Interp, xs: &[f64], ys: &[f64], zs: &[f64], out: &mut [f64]) {
-        match self.width {
-            1 => self.gradient_block::<1, false>(interp, xs, ys, zs, out),
-            3 => self.gradient_block::<3, false>(interp, xs, ys, zs, out),
-            _ => self.gradient_block::<MAX_WIDTH, false>(interp, xs, ys, zs, out),
-        }
+        points::gradients_of(self, self.width, interp, xs, ys, zs, out);
     }
 
     fn bounds(&self) -> Aabb {
