@@ -37,8 +37,13 @@ fn rounded(text: &str) -> String {
     out
 }
 
-/// Thumbnail sizes for the params an example declares.
-const SMALL: &[(&str, &str)] = &[("width", "16"), ("height", "9"), ("res", "24")];
+/// Thumbnail sizes, and a few frames for the simulations, for the params an example declares.
+const SMALL: &[(&str, &str)] = &[
+    ("width", "16"),
+    ("height", "9"),
+    ("res", "24"),
+    ("frames", "3"),
+];
 
 #[test]
 fn examples_run_at_thumbnail_size() {
