@@ -14,6 +14,7 @@ use crate::grid::domain::Domain;
 use crate::grid::interp::{AxisStencil, axis_stencil};
 use crate::grid::points::{self, PointRead};
 use crate::grid::reach;
+use crate::grid::spare::Spare;
 use crate::sample::{Aabb, Interp};
 use glam::{DMat3, DVec3};
 use rayon::prelude::*;
@@ -250,6 +251,15 @@ impl DenseGrid {
             }
         }
         reach::widen(samples, &self.background, &reach)
+    }
+}
+
+/// Values arrays of grids that were dropped, for the next solve of the same size.
+pub static SPARE_VALUES: Spare<f64> = Spare::new();
+
+impl Drop for DenseGrid {
+    fn drop(&mut self) {
+        SPARE_VALUES.give(std::mem::take(&mut self.values));
     }
 }
 

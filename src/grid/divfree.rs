@@ -20,7 +20,7 @@
 //! own, so it never waits on tasks that could need the grid it is computing.
 
 use crate::failure::{Failure, Outcome};
-use crate::grid::dense::DenseGrid;
+use crate::grid::dense::{DenseGrid, SPARE_VALUES};
 use crate::grid::domain::Domain;
 use crate::grid::fft::{
     DivergenceOperator, PROJECTION_BYTES_PER_CELL, check_working_memory,
@@ -192,7 +192,7 @@ impl DivergenceFree {
         let n = nx * ny * nz;
         // Sample row by row (x fastest), in blocks of at most BLOCK points: the same blocks on
         // any thread count, so the same values. Component-major, as the projection takes them.
-        let mut planes = vec![0.0f64; 3 * n];
+        let mut planes = SPARE_VALUES.take(3 * n);
         let (px, rest) = planes.split_at_mut(n);
         let (py, pz) = rest.split_at_mut(n);
         px.par_chunks_mut(nx)
@@ -231,7 +231,12 @@ impl DivergenceFree {
         if crate::interrupt::requested() {
             return Err(Failure::new(INTERRUPTED));
         }
-        if let Some(at) = planes.iter().position(|v| !v.is_finite()) {
+        // Checked on all threads; the first bad value is then found in order.
+        let any_bad = planes.par_iter().any(|v| !v.is_finite());
+        if let Some(at) = any_bad
+            .then(|| planes.iter().position(|v| !v.is_finite()))
+            .flatten()
+        {
             let cell = at % n;
             let (i, j, k) = (cell % nx, cell / nx % ny, cell / (nx * ny));
             let p = domain.cell_center(i, j, k);
@@ -257,14 +262,14 @@ impl DivergenceFree {
             rotate_planes(&mut planes, n, domain.rotation);
         }
         // Interleaved for reading: a trilinear read touches one place per cell.
-        let mut interleaved = vec![0.0f64; 3 * n];
+        let mut interleaved = SPARE_VALUES.take(3 * n);
         interleaved
             .par_chunks_mut(3)
             .enumerate()
             .for_each(|(cell, out)| {
                 out.copy_from_slice(&[planes[cell], planes[n + cell], planes[2 * n + cell]]);
             });
-        drop(planes);
+        SPARE_VALUES.give(planes);
         Ok(DenseGrid::new(domain.clone(), 3, interleaved, vec![0.0; 3]))
     }
 }

@@ -10,6 +10,7 @@ pub mod interp;
 pub mod points;
 pub mod profile;
 pub mod reach;
+pub mod spare;
 pub mod vdb;
 pub mod vdb_cache;
 

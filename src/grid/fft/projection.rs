@@ -8,15 +8,15 @@
 //! inverse z pass starts from there, so of the four whole-array transposes a z pass would
 //! otherwise need per component, two are never made. Working buffers are kept for the next
 //! projection of the same size, since page faults on fresh buffers cost as much as the
-//! transposes.
+//! transposes (`spare`).
 
 use super::{Complex64, DivergenceOperator, Grid, check_working_memory};
 use crate::failure::{Failure, Outcome};
+use crate::grid::spare::Spare;
 use glam::DVec3;
 use rayon::prelude::*;
 use realfft::RealFftPlanner;
 use rustfft::{FftDirection, FftPlanner};
-use std::sync::Mutex;
 
 /// Bytes per cell that [`project_divergence_free_with`] needs beyond its input: three half
 /// spectra and one half-size work array (rounded up).
@@ -39,26 +39,8 @@ pub fn project_divergence_free(
     Ok(())
 }
 
-/// The spare buffers of the last projection, reused by the next one of the same size.
-static SPARE: Mutex<Vec<Vec<Complex64>>> = Mutex::new(Vec::new());
-
-fn take_buffer(len: usize) -> Vec<Complex64> {
-    let mut spare = SPARE.lock().unwrap_or_else(|e| e.into_inner());
-    match spare.iter().position(|b| b.len() == len) {
-        Some(at) => spare.swap_remove(at),
-        None => {
-            // Buffers of another size are of no further use.
-            spare.clear();
-            vec![Complex64::default(); len]
-        }
-    }
-}
-
-fn give_back(buffers: impl IntoIterator<Item = Vec<Complex64>>) {
-    let mut spare = SPARE.lock().unwrap_or_else(|e| e.into_inner());
-    spare.extend(buffers);
-    spare.truncate(4);
-}
+/// Spare spectra, reused by the next projection of the same size.
+static SPECTRA: Spare<Complex64> = Spare::new();
 
 /// Removes, in place, the part of a periodic vector field (`f64` samples at cell centres,
 /// component-major, width 3, components along the grid's own axes) that `operator`'s
@@ -79,7 +61,11 @@ pub fn project_divergence_free_with(
             data.len()
         )));
     }
-    if let Some(at) = data.iter().position(|v| !v.is_finite()) {
+    let any_bad = data.par_iter().any(|v| !v.is_finite());
+    if let Some(at) = any_bad
+        .then(|| data.iter().position(|v| !v.is_finite()))
+        .flatten()
+    {
         let (c, i) = (at / grid.len, at % grid.len);
         let [x, y, z] = grid.cell_of(i);
         return Err(Failure::new(format!(
@@ -104,8 +90,8 @@ pub fn project_divergence_free_with(
         plan(&mut planner, nz, FftDirection::Inverse),
     );
 
-    let mut work = take_buffer(half.len);
-    let mut spectra: Vec<Vec<Complex64>> = (0..3).map(|_| take_buffer(half.len)).collect();
+    let mut work = SPECTRA.take(half.len);
+    let mut spectra: Vec<Vec<Complex64>> = (0..3).map(|_| SPECTRA.take(half.len)).collect();
     for (component, spectrum) in data.chunks(grid.len).zip(spectra.iter_mut()) {
         work.par_chunks_mut(h)
             .zip(component.par_chunks(nx))
@@ -183,6 +169,8 @@ pub fn project_divergence_free_with(
             );
     }
     spectra.push(work);
-    give_back(spectra);
+    for buffer in spectra {
+        SPECTRA.give(buffer);
+    }
     Ok(())
 }
