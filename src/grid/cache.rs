@@ -108,6 +108,8 @@ pub struct Cache {
     domain: Domain,
     /// World to local frame: the transpose of the domain's rotation.
     to_local: DMat3,
+    /// Whether the domain is unrotated (so `to_local` is the identity).
+    axis_aligned: bool,
     shape: Shape,
     width: usize,
     background: Vec<f64>,
@@ -272,6 +274,7 @@ impl Cache {
         };
         Ok(Cache {
             to_local: domain.rotation.transpose(),
+            axis_aligned: domain.rotation == DMat3::IDENTITY,
             domain,
             shape,
             width,

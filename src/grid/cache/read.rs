@@ -46,7 +46,13 @@ impl Cache {
     /// Continuous cell-index coordinates of a world point inside the domain box.
     #[inline]
     fn index_coords(&self, p: DVec3) -> Option<DVec3> {
-        let local = self.to_local * (p - self.domain.origin);
+        let offset = p - self.domain.origin;
+        // Most caches are axis-aligned: skip the rotation there.
+        let local = if self.axis_aligned {
+            offset
+        } else {
+            self.to_local * offset
+        };
         let inside = local.cmpge(DVec3::ZERO).all() && local.cmple(self.domain.lengths).all();
         inside.then(|| local / self.domain.cell - DVec3::splat(0.5))
     }
