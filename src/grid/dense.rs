@@ -137,8 +137,10 @@ impl DenseGrid {
         let mut below = [0usize; 3];
         let mut t = [0.0; 3];
         for a in 0..3 {
-            below[a] = (u[a].max(0.0) as usize).min(self.cells[a] - 2);
-            t[a] = u[a] - below[a] as f64;
+            // Through i64: x86 converts signed integers in one instruction, unsigned ones not.
+            let cell = (u[a].max(0.0) as i64).min(self.cells[a] as i64 - 2);
+            below[a] = cell as usize;
+            t[a] = u[a] - cell as f64;
         }
         let (nx, ny) = (self.cells[0], self.cells[1]);
         let base = below[0] + nx * (below[1] + ny * below[2]);

@@ -92,8 +92,10 @@ pub fn axis_stencil(interp: Interp, u: f64, cells: usize) -> AxisStencil {
     // The cell at or below u, kept so that cell + 1 exists. Truncation is the floor for
     // u >= 0, and below zero the clamp wins anyway (`as` saturates, NaN becomes 0); it avoids
     // a library call for `floor` on targets without SSE4.1.
-    let below = (u.max(0.0) as usize).min(cells - 2);
-    let t = u - below as f64;
+    // Through i64: x86 converts signed integers in one instruction, unsigned ones not.
+    let cell = (u.max(0.0) as i64).min(cells as i64 - 2);
+    let below = cell as usize;
+    let t = u - cell as f64;
     let extrapolating = !(u >= 0.0 && u <= last);
     if interp == Interp::Linear || extrapolating {
         let (w, s) = linear_weights(t);

@@ -69,9 +69,11 @@ impl Cache {
     ) {
         let cells = self.shape.cells;
         // Truncation, not `floor`: without SSE4.1 `floor` is a library call.
-        let [i, j, k] = [u.x as usize, u.y as usize, u.z as usize];
+        // Through i64: x86 converts signed integers in one instruction, unsigned ones not.
+        let [i, j, k] = [u.x as i64, u.y as i64, u.z as i64];
         if !GRADIENT && u.cmpge(DVec3::ZERO).all() && DVec3::new(i as f64, j as f64, k as f64) == u
         {
+            let [i, j, k] = [i as usize, j as usize, k as usize];
             // Exactly on a cell centre (as when a solve or a cache over the same cells reads
             // this one): every rule's weights are 1 there and 0 elsewhere.
             if i < cells[0] && j < cells[1] && k < cells[2] {
