@@ -189,10 +189,15 @@ fn mutated_scripts_give_diagnostics_not_panics() {
         };
         // Example scenes declare their sizes as params: shrink them so a mutant that runs
         // renders a thumbnail over a coarse grid, simulating two frames.
-        let small: Vec<(&str, &str)> = [("width", "8"), ("height", "6"), ("res", "8"), ("frames", "2")]
-            .into_iter()
-            .filter(|(name, _)| mutant.contains(&format!("param int {name} ")))
-            .collect();
+        let small: Vec<(&str, &str)> = [
+            ("width", "8"),
+            ("height", "6"),
+            ("res", "8"),
+            ("frames", "2"),
+        ]
+        .into_iter()
+        .filter(|(name, _)| mutant.contains(&format!("param int {name} ")))
+        .collect();
         let result = catch_unwind(AssertUnwindSafe(|| common::run_script(&target, &small)));
         stop.store(true, Ordering::Relaxed);
         watchdog.join().unwrap();
