@@ -175,8 +175,60 @@ impl DenseGrid {
         }
     }
 
+    /// Interpolated values at world points, component-major (`out[c * n + i]`).
+    pub fn sample(&self, interp: Interp, xs: &[f64], ys: &[f64], zs: &[f64], out: &mut [f64]) {
+        points::values_of(self, self.width, interp, xs, ys, zs, out);
+    }
+
+    /// Derivatives of the interpolant, `out[(c * 3 + j) * n + i]`; zero outside the box.
+    pub fn sample_gradient(
+        &self,
+        interp: Interp,
+        xs: &[f64],
+        ys: &[f64],
+        zs: &[f64],
+        out: &mut [f64],
+    ) {
+        points::gradients_of(self, self.width, interp, xs, ys, zs, out);
+    }
+
+    /// A conservative range per component of what the interpolant reaches in `region`.
+    pub fn range(&self, region: &Aabb) -> Vec<(f64, f64)> {
+        let lattice = self.domain.lattice();
+        reach::range(
+            &lattice,
+            region,
+            &self.background,
+            BLOCK,
+            |[bx, by, bz], samples| {
+                let block = bx + self.blocks[0] * (by + self.blocks[1] * bz);
+                for (c, s) in samples.iter_mut().enumerate() {
+                    let r = self.block_ranges[block * self.width + c];
+                    s.0 = s.0.min(r.0);
+                    s.1 = s.1.max(r.1);
+                }
+            },
+        )
+    }
+}
+
+/// Values arrays of grids that were dropped, for the next solve of the same size.
+pub static SPARE_VALUES: Spare<f64> = Spare::new();
+
+impl Drop for DenseGrid {
+    fn drop(&mut self) {
+        SPARE_VALUES.give(std::mem::take(&mut self.values));
+    }
+}
+
+impl PointRead for DenseGrid {
     #[inline(always)]
-    fn read_general<const W: usize, const GRADIENT: bool>(
+    fn index_of(&self, p: DVec3) -> Option<DVec3> {
+        self.index_coords_inside(p)
+    }
+
+    #[inline(always)]
+    fn read<const W: usize, const GRADIENT: bool>(
         &self,
         interp: Interp,
         u: DVec3,
@@ -211,75 +263,6 @@ impl DenseGrid {
                 }
             }
         }
-    }
-
-    /// Interpolated values at world points, component-major (`out[c * n + i]`).
-    pub fn sample(&self, interp: Interp, xs: &[f64], ys: &[f64], zs: &[f64], out: &mut [f64]) {
-        points::values_of(self, self.width, interp, xs, ys, zs, out);
-    }
-
-    /// Derivatives of the interpolant, `out[(c * 3 + j) * n + i]`; zero outside the box.
-    pub fn sample_gradient(
-        &self,
-        interp: Interp,
-        xs: &[f64],
-        ys: &[f64],
-        zs: &[f64],
-        out: &mut [f64],
-    ) {
-        points::gradients_of(self, self.width, interp, xs, ys, zs, out);
-    }
-
-    /// A conservative range per component of what the interpolant reaches in `region`.
-    pub fn range(&self, region: &Aabb) -> Vec<(f64, f64)> {
-        let background: Vec<(f64, f64)> = self.background.iter().map(|&b| (b, b)).collect();
-        if region.is_empty() {
-            return background;
-        }
-        let Some(reach) = reach::reach(&self.domain.lattice(), region) else {
-            return background;
-        };
-        let mut samples = vec![(f64::INFINITY, f64::NEG_INFINITY); self.width];
-        for bz in reach.first[2] / BLOCK..=reach.last[2] / BLOCK {
-            for by in reach.first[1] / BLOCK..=reach.last[1] / BLOCK {
-                for bx in reach.first[0] / BLOCK..=reach.last[0] / BLOCK {
-                    let block = bx + self.blocks[0] * (by + self.blocks[1] * bz);
-                    for (c, s) in samples.iter_mut().enumerate() {
-                        let r = self.block_ranges[block * self.width + c];
-                        s.0 = s.0.min(r.0);
-                        s.1 = s.1.max(r.1);
-                    }
-                }
-            }
-        }
-        reach::widen(samples, &self.background, &reach)
-    }
-}
-
-/// Values arrays of grids that were dropped, for the next solve of the same size.
-pub static SPARE_VALUES: Spare<f64> = Spare::new();
-
-impl Drop for DenseGrid {
-    fn drop(&mut self) {
-        SPARE_VALUES.give(std::mem::take(&mut self.values));
-    }
-}
-
-impl PointRead for DenseGrid {
-    #[inline(always)]
-    fn index_of(&self, p: DVec3) -> Option<DVec3> {
-        self.index_coords_inside(p)
-    }
-
-    #[inline(always)]
-    fn read<const W: usize, const GRADIENT: bool>(
-        &self,
-        interp: Interp,
-        u: DVec3,
-        value: &mut [f64; W],
-        gradient: &mut [[f64; 3]; W],
-    ) {
-        self.read_general::<W, GRADIENT>(interp, u, value, gradient);
     }
 
     fn outside(&self) -> &[f64] {

@@ -108,3 +108,32 @@ pub fn widen(samples: Vec<(f64, f64)>, background: &[f64], reach: &Reach) -> Vec
         })
         .collect()
 }
+
+/// The range of a grid read over `region`: the blocks of `block` cells per side that its
+/// stencils reach, each block's per-component extremes merged by `merge_block` (given the
+/// block's coordinates and the running extremes), widened as [`widen`] says. Outside the
+/// domain, or for an empty region, the background.
+pub fn range(
+    lattice: &Lattice,
+    region: &Aabb,
+    background: &[f64],
+    block: usize,
+    mut merge_block: impl FnMut([usize; 3], &mut [(f64, f64)]),
+) -> Vec<(f64, f64)> {
+    let flat: Vec<(f64, f64)> = background.iter().map(|&b| (b, b)).collect();
+    if region.is_empty() {
+        return flat;
+    }
+    let Some(reach) = reach(lattice, region) else {
+        return flat;
+    };
+    let mut samples = vec![(f64::INFINITY, f64::NEG_INFINITY); background.len()];
+    for bz in reach.first[2] / block..=reach.last[2] / block {
+        for by in reach.first[1] / block..=reach.last[1] / block {
+            for bx in reach.first[0] / block..=reach.last[0] / block {
+                merge_block([bx, by, bz], &mut samples);
+            }
+        }
+    }
+    widen(samples, background, &reach)
+}

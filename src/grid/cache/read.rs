@@ -57,69 +57,6 @@ impl Cache {
         inside.then(|| local / self.domain.cell - DVec3::splat(0.5))
     }
 
-    /// Interpolates at index coordinates `u`: the value and, when `GRADIENT`, its derivatives
-    /// with respect to the index coordinates.
-    #[inline(always)]
-    fn read_point<const W: usize, const GRADIENT: bool>(
-        &self,
-        interp: Interp,
-        u: DVec3,
-        value: &mut [f64; W],
-        gradient: &mut [[f64; 3]; W],
-    ) {
-        let cells = self.shape.cells;
-        // Truncation, not `floor`: without SSE4.1 `floor` is a library call.
-        // Through i64: x86 converts signed integers in one instruction, unsigned ones not.
-        let [i, j, k] = [u.x as i64, u.y as i64, u.z as i64];
-        if !GRADIENT && u.cmpge(DVec3::ZERO).all() && DVec3::new(i as f64, j as f64, k as f64) == u
-        {
-            let [i, j, k] = [i as usize, j as usize, k as usize];
-            // Exactly on a cell centre (as when a solve or a cache over the same cells reads
-            // this one): every rule's weights are 1 there and 0 elsewhere.
-            if i < cells[0] && j < cells[1] && k < cells[2] {
-                let index = self.shape.brick_index([i / BRICK, j / BRICK, k / BRICK]);
-                match self.brick(index).values.as_deref() {
-                    Some(values) => {
-                        let at = (i % BRICK + BRICK * (j % BRICK + BRICK * (k % BRICK))) * W;
-                        for c in 0..W {
-                            value[c] = f64::from(values[at + c]);
-                        }
-                    }
-                    None => value.copy_from_slice(&self.background[..W]),
-                }
-                return;
-            }
-        }
-        let axes = [
-            axis_stencil(interp, u.x, cells[0]),
-            axis_stencil(interp, u.y, cells[1]),
-            axis_stencil(interp, u.z, cells[2]),
-        ];
-        let first = axes.map(|axis| axis.start / BRICK);
-        let last = axes.map(|axis| (axis.start + axis.len - 1) / BRICK);
-        if first != last {
-            let stencil = self.stencil(axes);
-            return Cache::interpolate::<W, GRADIENT>(&stencil, value, gradient);
-        }
-        // Most stencils lie inside one brick: read it with fixed strides.
-        let Some(brick) = self.brick(self.shape.brick_index(first)).values.as_deref() else {
-            // A uniform brick reads its value, with no slope.
-            value.copy_from_slice(&self.background[..W]);
-            return;
-        };
-        let base = axes.map(|axis| axis.start % BRICK);
-        let base = base[0] + BRICK * (base[1] + BRICK * base[2]);
-        match axes.map(|axis| axis.len) {
-            [2, 2, 2] => {
-                Cache::accumulate_within::<W, GRADIENT, 2>(&axes, brick, base, value, gradient)
-            }
-            [4, 4, 4] => {
-                Cache::accumulate_within::<W, GRADIENT, 4>(&axes, brick, base, value, gradient)
-            }
-            _ => Cache::accumulate_within::<W, GRADIENT, 0>(&axes, brick, base, value, gradient),
-        }
-    }
-
     /// The stencil sum when every cell lies in `brick`, from local cell `base`; `LEN` as for
     /// `accumulate`. Same terms in the same order as `accumulate`.
     #[inline(always)]
@@ -336,7 +273,57 @@ impl PointRead for Cache {
         value: &mut [f64; W],
         gradient: &mut [[f64; 3]; W],
     ) {
-        self.read_point::<W, GRADIENT>(interp, u, value, gradient);
+        let cells = self.shape.cells;
+        // Truncation, not `floor`: without SSE4.1 `floor` is a library call.
+        // Through i64: x86 converts signed integers in one instruction, unsigned ones not.
+        let [i, j, k] = [u.x as i64, u.y as i64, u.z as i64];
+        if !GRADIENT && u.cmpge(DVec3::ZERO).all() && DVec3::new(i as f64, j as f64, k as f64) == u
+        {
+            let [i, j, k] = [i as usize, j as usize, k as usize];
+            // Exactly on a cell centre (as when a solve or a cache over the same cells reads
+            // this one): every rule's weights are 1 there and 0 elsewhere.
+            if i < cells[0] && j < cells[1] && k < cells[2] {
+                let index = self.shape.brick_index([i / BRICK, j / BRICK, k / BRICK]);
+                match self.brick(index).values.as_deref() {
+                    Some(values) => {
+                        let at = (i % BRICK + BRICK * (j % BRICK + BRICK * (k % BRICK))) * W;
+                        for c in 0..W {
+                            value[c] = f64::from(values[at + c]);
+                        }
+                    }
+                    None => value.copy_from_slice(&self.background[..W]),
+                }
+                return;
+            }
+        }
+        let axes = [
+            axis_stencil(interp, u.x, cells[0]),
+            axis_stencil(interp, u.y, cells[1]),
+            axis_stencil(interp, u.z, cells[2]),
+        ];
+        let first = axes.map(|axis| axis.start / BRICK);
+        let last = axes.map(|axis| (axis.start + axis.len - 1) / BRICK);
+        if first != last {
+            let stencil = self.stencil(axes);
+            return Cache::interpolate::<W, GRADIENT>(&stencil, value, gradient);
+        }
+        // Most stencils lie inside one brick: read it with fixed strides.
+        let Some(brick) = self.brick(self.shape.brick_index(first)).values.as_deref() else {
+            // A uniform brick reads its value, with no slope.
+            value.copy_from_slice(&self.background[..W]);
+            return;
+        };
+        let base = axes.map(|axis| axis.start % BRICK);
+        let base = base[0] + BRICK * (base[1] + BRICK * base[2]);
+        match axes.map(|axis| axis.len) {
+            [2, 2, 2] => {
+                Cache::accumulate_within::<W, GRADIENT, 2>(&axes, brick, base, value, gradient)
+            }
+            [4, 4, 4] => {
+                Cache::accumulate_within::<W, GRADIENT, 4>(&axes, brick, base, value, gradient)
+            }
+            _ => Cache::accumulate_within::<W, GRADIENT, 0>(&axes, brick, base, value, gradient),
+        }
     }
 
     fn outside(&self) -> &[f64] {
@@ -368,7 +355,7 @@ impl PointRead for Anywhere<'_> {
         value: &mut [f64; W],
         gradient: &mut [[f64; 3]; W],
     ) {
-        self.0.read_point::<W, GRADIENT>(interp, u, value, gradient);
+        self.0.read::<W, GRADIENT>(interp, u, value, gradient);
     }
 
     fn outside(&self) -> &[f64] {
@@ -427,25 +414,13 @@ impl GridSource for Cache {
     /// Fills the bricks whose cells the interpolant reads inside `region`, on the calling
     /// thread (no rayon: this may run inside another cache's brick fill).
     fn range(&self, region: &Aabb) -> Vec<(f64, f64)> {
-        let background: Vec<(f64, f64)> = self.background.iter().map(|&b| (b, b)).collect();
-        if region.is_empty() {
-            return background;
-        }
-        let Some(reach) = reach::reach(&self.domain.lattice(), region) else {
-            return background;
-        };
-        let mut samples = vec![(f64::INFINITY, f64::NEG_INFINITY); self.width];
-        for bz in reach.first[2] / BRICK..=reach.last[2] / BRICK {
-            for by in reach.first[1] / BRICK..=reach.last[1] / BRICK {
-                for bx in reach.first[0] / BRICK..=reach.last[0] / BRICK {
-                    let brick = self.brick(self.shape.brick_index([bx, by, bz]));
-                    for (c, (low, high)) in samples.iter_mut().enumerate() {
-                        *low = low.min(f64::from(brick.range[c].0));
-                        *high = high.max(f64::from(brick.range[c].1));
-                    }
-                }
+        let lattice = self.domain.lattice();
+        reach::range(&lattice, region, &self.background, BRICK, |b, samples| {
+            let brick = self.brick(self.shape.brick_index(b));
+            for (c, (low, high)) in samples.iter_mut().enumerate() {
+                *low = low.min(f64::from(brick.range[c].0));
+                *high = high.max(f64::from(brick.range[c].1));
             }
-        }
-        reach::widen(samples, &self.background, &reach)
+        })
     }
 }
