@@ -413,3 +413,45 @@ fn simulations_are_bit_identical_for_any_thread_count() {
         assert_eq!(run("1", script), run("3", script), "{script}");
     }
 }
+
+#[test]
+fn held_reads_never_leave_the_range_of_the_samples() {
+    let out = lines_of(common::run_source(
+        "hold.felt",
+        r#"
+        domain d((0, 0, 0), (1, 1, 1), (0, 0, 0), 0.25);
+        scalarcache c(d);
+        cachewrite(c, mask(0.75 - identity().x));
+        // In the half cell inside the face at x = 1 the default read extrapolates the step
+        // down to below zero; held, it keeps the edge cell's value.
+        print(probe(cacheread(c), (0.99, 0.5, 0.5)), probe(cacheread(c, outside = "hold"), (0.99, 0.5, 0.5)));
+        print(probe(cacheread(c, outside = "hold"), (0.01, 0.5, 0.5)), probe(cacheread(c, outside = "hold"), (1.01, 0.5, 0.5)));
+        // Advected away from the wall it touches, a held density stays within [0, 1].
+        domain box((-1, -1, -1), (2, 2, 2), (0, 0, 0), 0.1);
+        scalarcache start(box);
+        cachewrite(start, mask(0.22 - length(identity() - vectorfield((0.7, 0, 0)))));
+        scalarfield rho = cacheread(start, outside = "hold");
+        scalarfield plain = cacheread(start);
+        for (int f = 0; f < 10; f++) {
+            scalarcache a(box);
+            cachewrite(a, advect(rho, vectorfield((-0.6, 0.2, 0)), 0.05));
+            rho = cacheread(a, outside = "hold");
+            scalarcache b(box);
+            cachewrite(b, advect(plain, vectorfield((-0.6, 0.2, 0)), 0.05));
+            plain = cacheread(b);
+        }
+        print(stats(rho, box), stats(plain, box));
+        "#,
+    ));
+    let edge = numbers(&out[0]);
+    assert!(edge[0] < -0.4, "{}", out[0]);
+    assert_eq!(edge[1], 0.0, "{}", out[0]);
+    assert_eq!(numbers(&out[1]), [1.0, 0.0]);
+    let held = numbers(&out[2]);
+    assert!(held[0] >= 0.0 && held[1] <= 1.0, "{}", out[2]);
+    assert!(
+        held[3] < 0.0,
+        "the default read does go below zero here: {}",
+        out[2]
+    );
+}

@@ -23,8 +23,8 @@
 //! Filling bricks lives in `cache/fill.rs`; reading (interpolation, gradients, ranges) in
 //! `cache/read.rs`.
 
-pub mod extrapolated;
 mod fill;
+pub mod outside;
 mod read;
 #[cfg(test)]
 mod test_support;

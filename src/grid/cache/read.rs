@@ -195,6 +195,24 @@ impl Cache {
         points::values_of(&Anywhere(self), self.width, interp, xs, ys, zs, out);
     }
 
+    /// Interpolated values at world points, holding the outermost cells' values in the
+    /// half-cell border inside the faces (the background beyond).
+    pub fn sample_held(&self, interp: Interp, xs: &[f64], ys: &[f64], zs: &[f64], out: &mut [f64]) {
+        points::values_of(&Held(self), self.width, interp, xs, ys, zs, out);
+    }
+
+    /// The derivative of the interpolant at the held point (in the border, the edge cells' slope).
+    pub fn gradient_held(
+        &self,
+        interp: Interp,
+        xs: &[f64],
+        ys: &[f64],
+        zs: &[f64],
+        out: &mut [f64],
+    ) {
+        points::gradients_of(&Held(self), self.width, interp, xs, ys, zs, out);
+    }
+
     /// The exact derivative of [`Cache::sample_extrapolated`].
     pub fn gradient_extrapolated(
         &self,
@@ -345,6 +363,38 @@ impl PointRead for Anywhere<'_> {
         let cache = self.0;
         let local = cache.to_local * (p - cache.domain.origin);
         Some(local / cache.domain.cell - DVec3::splat(0.5))
+    }
+
+    #[inline(always)]
+    fn read<const W: usize, const GRADIENT: bool>(
+        &self,
+        interp: Interp,
+        u: DVec3,
+        value: &mut [f64; W],
+        gradient: &mut [[f64; 3]; W],
+    ) {
+        self.0.read::<W, GRADIENT>(interp, u, value, gradient);
+    }
+
+    fn outside(&self) -> &[f64] {
+        &self.0.background
+    }
+
+    fn placement(&self) -> (DMat3, DVec3) {
+        self.0.placement()
+    }
+}
+
+/// A cache read whose index coordinates are held within the span of cell centres.
+struct Held<'a>(&'a Cache);
+
+impl PointRead for Held<'_> {
+    #[inline(always)]
+    fn index_of(&self, p: DVec3) -> Option<DVec3> {
+        let last = self.0.shape.cells.map(|n| (n - 1) as f64);
+        self.0
+            .index_coords(p)
+            .map(|u| u.clamp(DVec3::ZERO, DVec3::from_array(last)))
     }
 
     #[inline(always)]

@@ -12,7 +12,7 @@ use crate::diagnostic::{self, Diagnostic, Stage};
 use crate::failure::{Failure, Outcome};
 use crate::field::{CompiledField, Field};
 use crate::grid::cache::Cache;
-use crate::grid::cache::extrapolated::Extrapolated;
+use crate::grid::cache::outside::{Outside, OutsideRead};
 use crate::grid::domain::Domain;
 use crate::grid::vdb_cache;
 use crate::interp::Interpreter;
@@ -104,7 +104,8 @@ pub fn register(r: &mut Registry) {
         ],
         "the field interpolating c's samples: interp \"linear\" (default) or \"cubic\"; \
          grad of it is the interpolant's derivative, or derivative = \"central\" differences; \
-         outside = \"background\" (default) or \"extrapolate\" (linear, for SELMA maps)",
+         outside = \"background\" (default), \"extrapolate\" (linear, for SELMA maps) or \"hold\" \
+         (edge values in the border half cell: never below or above the samples, for densities)",
         cacheread,
     );
     r.add(
@@ -258,14 +259,15 @@ fn cacheread(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
             }
         },
     };
-    let extrapolate = match a.opt(3) {
-        None => false,
+    let outside = match a.opt(3) {
+        None => None,
         Some(v) => match v.as_str()? {
-            "background" => false,
-            "extrapolate" => true,
+            "background" => None,
+            "extrapolate" => Some(Outside::Extrapolate),
+            "hold" => Some(Outside::Hold),
             other => {
                 return Err(Failure::new(format!(
-                    "outside must be \"background\" or \"extrapolate\", found \"{other}\""
+                    "outside must be \"background\", \"extrapolate\" or \"hold\", found \"{other}\""
                 )));
             }
         },
@@ -273,10 +275,9 @@ fn cacheread(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
     let state = var.state.borrow().clone();
     let field = match state {
         Some(cache) => {
-            let grid: Arc<dyn GridSource> = if extrapolate {
-                Arc::new(Extrapolated::new(cache))
-            } else {
-                cache
+            let grid: Arc<dyn GridSource> = match outside {
+                Some(how) => Arc::new(OutsideRead::new(cache, how)),
+                None => cache,
             };
             Field::from_grid(grid, interp_kind, derivative)?
         }
@@ -366,7 +367,7 @@ pub fn resample(field: &Field, grid: &dyn GridSource, label: &str) -> Outcome<Fi
         label.to_string(),
     )?);
     let read: Arc<dyn GridSource> = if lattice.extrapolates {
-        Arc::new(Extrapolated::new(cache))
+        Arc::new(OutsideRead::new(cache, Outside::Extrapolate))
     } else {
         cache
     };
