@@ -15,6 +15,10 @@ use std::process::ExitCode;
 /// Stack of the thread that runs scripts.
 const RUN_STACK_BYTES: usize = 512 << 20;
 
+/// Most worker threads `--threads` accepts: far more than any machine felt runs on has cores,
+/// and few enough that asking for them cannot exhaust the process's thread limit by itself.
+const MAX_THREADS: u16 = 1024;
+
 #[derive(Parser)]
 #[command(
     name = "felt",
@@ -36,7 +40,11 @@ enum Command {
         #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_assignment)]
         set: Vec<(String, String)>,
         /// Worker threads for field evaluation and rendering (default: all cores).
-        #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
+        #[arg(
+            long,
+            value_name = "N",
+            value_parser = clap::value_parser!(u16).range(1..=MAX_THREADS as i64)
+        )]
         threads: Option<u16>,
         /// After the run, print each grid that was computed and the grids never needed.
         #[arg(long)]
@@ -53,7 +61,11 @@ enum Command {
     /// Start an interactive session.
     Repl {
         /// Worker threads for field evaluation and rendering (default: all cores).
-        #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
+        #[arg(
+            long,
+            value_name = "N",
+            value_parser = clap::value_parser!(u16).range(1..=MAX_THREADS as i64)
+        )]
         threads: Option<u16>,
     },
     /// List the builtins and library functions, or describe one.
@@ -97,13 +109,21 @@ fn main() -> ExitCode {
     }
 }
 
-fn set_threads(threads: Option<u16>) {
-    if let Some(n) = threads {
-        // Only fails if a pool already exists, which cannot happen this early.
-        let _ = rayon::ThreadPoolBuilder::new()
-            .num_threads(n as usize)
-            .build_global();
-    }
+/// Starts the worker pool now, with `threads` workers or one per core, so that a pool that
+/// cannot start is a usage error here rather than a panic at the first parallel loop.
+fn set_threads(threads: Option<u16>) -> Result<(), ExitCode> {
+    let workers = threads.map_or(0, usize::from);
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(workers)
+        .build_global()
+        .map_err(|e| {
+            match threads {
+                Some(n) => eprintln!("felt: cannot start {n} worker threads: {e}"),
+                None => eprintln!("felt: cannot start the worker threads: {e}"),
+            }
+            eprintln!("  help: try a smaller `--threads`");
+            ExitCode::from(2)
+        })
 }
 
 fn run(cli: Cli) -> ExitCode {
@@ -116,7 +136,9 @@ fn run(cli: Cli) -> ExitCode {
             profile,
             memory_limit,
         } => {
-            set_threads(threads);
+            if let Err(code) = set_threads(threads) {
+                return code;
+            }
             if let Some(megabytes) = memory_limit {
                 felt::grid::domain::set_memory_limit(megabytes.saturating_mul(1 << 20));
             }
@@ -173,7 +195,9 @@ fn run(cli: Cli) -> ExitCode {
             code
         }
         Command::Repl { threads } => {
-            set_threads(threads);
+            if let Err(code) = set_threads(threads) {
+                return code;
+            }
             felt::repl::run()
         }
         Command::Doc { name } => felt::doc::print(name.as_deref()),

@@ -12,7 +12,7 @@ use crate::syntax::ast::{DeclInit, Item, Program, StmtKind};
 use crate::syntax::span::{FileId, SourceMap, Span};
 use std::cell::RefCell;
 use std::collections::HashSet;
-use std::io::Write;
+use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::rc::Rc;
 
@@ -143,13 +143,7 @@ impl Session {
         if !self.loaded.insert(canonical.clone()) {
             return Ok(());
         }
-        let text = std::fs::read(&canonical).map_err(|e| {
-            vec![read_error(format!(
-                "cannot read `{}`: {}",
-                path.display(),
-                e
-            ))]
-        })?;
+        let text = read_script(path).map_err(|message| vec![read_error(message)])?;
         let text = String::from_utf8(text).map_err(|e| {
             vec![read_error(format!(
                 "`{}` is not UTF-8 text (invalid byte at offset {})",
@@ -366,6 +360,67 @@ impl Session {
         };
         let mut env = self.env.clone();
         check::type_of_expr(&mut env, e).map(|t| t.to_string())
+    }
+}
+
+/// Largest script felt reads: far past any file written by hand or by a generator, and small
+/// enough that a wrong path (a log, a disk image) fails at once instead of filling memory.
+pub const MAX_SCRIPT_BYTES: u64 = 64 << 20;
+
+/// The bytes of a script or an import. Only regular files are read (a device such as
+/// `/dev/zero` streams forever, a FIFO blocks), and at most `MAX_SCRIPT_BYTES` of them: the
+/// read is capped too, since a file may grow after its size was looked at.
+fn read_script(path: &Path) -> Result<Vec<u8>, String> {
+    let cannot = |reason: String| format!("cannot read `{}`: {reason}", path.display());
+    let too_large = || {
+        cannot(format!(
+            "it is larger than {} MiB, the most a script may be",
+            MAX_SCRIPT_BYTES >> 20
+        ))
+    };
+    let metadata = std::fs::metadata(path).map_err(|e| cannot(e.to_string()))?;
+    if !metadata.is_file() {
+        return Err(cannot(format!(
+            "it is {}, not a regular file",
+            describe_file_type(metadata.file_type())
+        )));
+    }
+    if metadata.len() > MAX_SCRIPT_BYTES {
+        return Err(too_large());
+    }
+    let file = std::fs::File::open(path).map_err(|e| cannot(e.to_string()))?;
+    let mut bytes = Vec::new();
+    file.take(MAX_SCRIPT_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| cannot(e.to_string()))?;
+    if bytes.len() as u64 > MAX_SCRIPT_BYTES {
+        return Err(too_large());
+    }
+    Ok(bytes)
+}
+
+/// "a directory", "a FIFO", … for a file that is not a regular one.
+fn describe_file_type(kind: std::fs::FileType) -> &'static str {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if kind.is_char_device() {
+            return "a character device";
+        }
+        if kind.is_block_device() {
+            return "a block device";
+        }
+        if kind.is_fifo() {
+            return "a FIFO (named pipe)";
+        }
+        if kind.is_socket() {
+            return "a socket";
+        }
+    }
+    if kind.is_dir() {
+        "a directory"
+    } else {
+        "a special file"
     }
 }
 

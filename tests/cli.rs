@@ -2,10 +2,32 @@
 //! driven through a real terminal (tmux), when tmux is installed.
 
 use std::path::Path;
-use std::process::Command;
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
 
 fn felt() -> Command {
     Command::new(env!("CARGO_BIN_EXE_felt"))
+}
+
+/// Runs `felt` with `args`, failing the test (not hanging it) if it takes longer than `limit`.
+fn felt_within(args: &[&str], limit: Duration) -> Output {
+    let mut child = felt()
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let started = Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if started.elapsed() > limit {
+            child.kill().unwrap();
+            let _ = child.wait();
+            panic!("`felt {}` still running after {limit:?}", args.join(" "));
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    child.wait_with_output().unwrap()
 }
 
 #[test]
@@ -93,6 +115,119 @@ fn doc_lists_and_describes_builtins() {
     let unknown = felt().args(["doc", "sise"]).output().unwrap();
     assert_eq!(unknown.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&unknown.stderr).contains("did you mean `size`?"));
+}
+
+/// miette panics on a label past column ~65,530; long lines are cut around the label, and the
+/// header still gives the line and column in the file as written.
+#[test]
+fn diagnostics_on_very_long_lines_keep_their_place() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("long.felt");
+    let script = format!("float a = 1.0;\n{}undefined_name;\n", " ".repeat(70_000));
+    std::fs::write(&path, script).unwrap();
+    let path = path.to_str().unwrap();
+    for command in ["check", "run"] {
+        let out = felt().args([command, path]).output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "felt {command}: {stderr}");
+        assert!(
+            stderr.contains("unknown variable `undefined_name`"),
+            "felt {command}: {stderr}"
+        );
+        assert!(
+            stderr.contains("long.felt:2:70001]"),
+            "felt {command}: {stderr}"
+        );
+        assert!(
+            stderr.lines().all(|line| line.chars().count() < 400),
+            "felt {command}: the long line was not cut"
+        );
+    }
+}
+
+#[test]
+fn thread_counts_are_checked_before_the_pool_starts() {
+    let absurd = felt()
+        .args(["run", "--threads", "4000", "tests/scripts/lang/values.felt"])
+        .output()
+        .unwrap();
+    assert_eq!(absurd.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&absurd.stderr);
+    assert!(stderr.contains("1..=1024"), "{stderr}");
+    let two = felt()
+        .args(["run", "--threads", "2", "tests/scripts/lang/values.felt"])
+        .output()
+        .unwrap();
+    assert_eq!(
+        two.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&two.stderr)
+    );
+}
+
+/// Scripts, imports and VDB files are read only from regular files, and scripts only up to
+/// 64 MiB: a device never ends, a FIFO blocks until someone writes to it.
+#[cfg(unix)]
+#[test]
+fn only_regular_files_are_read() {
+    let limit = Duration::from_secs(20);
+    let zero = felt_within(&["run", "/dev/zero"], limit);
+    assert_eq!(zero.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&zero.stderr);
+    assert!(
+        stderr.contains("/dev/zero") && stderr.contains("not a regular file"),
+        "{stderr}"
+    );
+
+    let dir = tempfile::tempdir().unwrap();
+    let importer = dir.path().join("importer.felt");
+    std::fs::write(&importer, "print(1);\nimport \"/dev/zero\";\n").unwrap();
+    let import = felt_within(&["run", importer.to_str().unwrap()], limit);
+    assert_eq!(import.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&import.stderr);
+    assert!(
+        stderr.contains("importer.felt:2:1]") && stderr.contains("not a regular file"),
+        "{stderr}"
+    );
+
+    let huge = dir.path().join("huge.felt");
+    std::fs::File::create(&huge)
+        .unwrap()
+        .set_len((64 << 20) + 1)
+        .unwrap();
+    let too_big = felt_within(&["check", huge.to_str().unwrap()], limit);
+    assert_eq!(too_big.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&too_big.stderr);
+    assert!(
+        stderr.contains("huge.felt") && stderr.contains("larger than 64 MiB"),
+        "{stderr}"
+    );
+
+    let fifo = dir.path().join("grid.vdb");
+    let made = Command::new("mkfifo").arg(&fifo).status().unwrap();
+    assert!(made.success());
+    for (load, kind) in [
+        ("cacheload", "scalarfield"),
+        ("cacheloadvector", "vectorfield"),
+    ] {
+        let script = dir.path().join(format!("{load}.felt"));
+        std::fs::write(
+            &script,
+            format!(
+                "{kind} f = {load}({:?}, \"density\");\n",
+                fifo.to_str().unwrap()
+            ),
+        )
+        .unwrap();
+        let out = felt_within(&["run", script.to_str().unwrap()], limit);
+        assert_eq!(out.status.code(), Some(1));
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            stderr.contains(&format!("{load}.felt:1:")) && stderr.contains("not a regular file"),
+            "{stderr}"
+        );
+    }
 }
 
 /// Drives `felt repl` in a tmux pane: a function over several lines, a call, an error, and a

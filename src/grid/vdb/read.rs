@@ -50,9 +50,22 @@ pub fn read_grid_bytes(bytes: &[u8], name: &str) -> Outcome<VdbGrid> {
 }
 
 fn load(path: &Path) -> Outcome<Vec<u8>> {
+    let cannot = |reason: &dyn std::fmt::Display| {
+        Failure::new(format!(
+            "cannot read VDB file '{}': {reason}",
+            path.display()
+        ))
+    };
+    // Checked before opening: opening a FIFO blocks until something writes to it, and a
+    // device such as /dev/zero never ends.
+    let metadata = std::fs::metadata(path).map_err(|e| {
+        cannot(&e).with_help("check the path; it is relative to the directory felt runs in")
+    })?;
+    if !metadata.is_file() {
+        return Err(cannot(&"not a regular file (a directory, device or pipe)"));
+    }
     std::fs::read(path).map_err(|e| {
-        Failure::new(format!("cannot read VDB file '{}': {e}", path.display()))
-            .with_help("check the path; it is relative to the directory felt runs in")
+        cannot(&e).with_help("check the path; it is relative to the directory felt runs in")
     })
 }
 
