@@ -192,13 +192,13 @@ impl Cache {
         zs: &[f64],
         out: &mut [f64],
     ) {
-        points::values_of(&Anywhere(self), self.width, interp, xs, ys, zs, out);
+        points::values_of(&Edges::<false>(self), self.width, interp, xs, ys, zs, out);
     }
 
     /// Interpolated values at world points, holding the outermost cells' values in the
     /// half-cell border inside the faces (the background beyond).
     pub fn sample_held(&self, interp: Interp, xs: &[f64], ys: &[f64], zs: &[f64], out: &mut [f64]) {
-        points::values_of(&Held(self), self.width, interp, xs, ys, zs, out);
+        points::values_of(&Edges::<true>(self), self.width, interp, xs, ys, zs, out);
     }
 
     /// The derivative of the interpolant at the held point (in the border, the edge cells' slope).
@@ -210,7 +210,7 @@ impl Cache {
         zs: &[f64],
         out: &mut [f64],
     ) {
-        points::gradients_of(&Held(self), self.width, interp, xs, ys, zs, out);
+        points::gradients_of(&Edges::<true>(self), self.width, interp, xs, ys, zs, out);
     }
 
     /// The exact derivative of [`Cache::sample_extrapolated`].
@@ -222,7 +222,7 @@ impl Cache {
         zs: &[f64],
         out: &mut [f64],
     ) {
-        points::gradients_of(&Anywhere(self), self.width, interp, xs, ys, zs, out);
+        points::gradients_of(&Edges::<false>(self), self.width, interp, xs, ys, zs, out);
     }
 
     /// A conservative range of [`Cache::sample_extrapolated`] over `region`. Inside the box it
@@ -353,48 +353,23 @@ impl PointRead for Cache {
     }
 }
 
-/// A cache read anywhere: outside the box the stencils extrapolate linearly from the two
-/// outermost cells.
-struct Anywhere<'a>(&'a Cache);
+/// A cache read with other edges: `HOLD`, index coordinates are held within the span of cell
+/// centres (the background beyond the box); otherwise any point is read, and outside the box
+/// the stencils extrapolate linearly from the two outermost cells.
+struct Edges<'a, const HOLD: bool>(&'a Cache);
 
-impl PointRead for Anywhere<'_> {
+impl<const HOLD: bool> PointRead for Edges<'_, HOLD> {
     #[inline(always)]
     fn index_of(&self, p: DVec3) -> Option<DVec3> {
         let cache = self.0;
+        if HOLD {
+            let last = cache.shape.cells.map(|n| (n - 1) as f64);
+            return cache
+                .index_coords(p)
+                .map(|u| u.clamp(DVec3::ZERO, DVec3::from_array(last)));
+        }
         let local = cache.to_local * (p - cache.domain.origin);
         Some(local / cache.domain.cell - DVec3::splat(0.5))
-    }
-
-    #[inline(always)]
-    fn read<const W: usize, const GRADIENT: bool>(
-        &self,
-        interp: Interp,
-        u: DVec3,
-        value: &mut [f64; W],
-        gradient: &mut [[f64; 3]; W],
-    ) {
-        self.0.read::<W, GRADIENT>(interp, u, value, gradient);
-    }
-
-    fn outside(&self) -> &[f64] {
-        &self.0.background
-    }
-
-    fn placement(&self) -> (DMat3, DVec3) {
-        self.0.placement()
-    }
-}
-
-/// A cache read whose index coordinates are held within the span of cell centres.
-struct Held<'a>(&'a Cache);
-
-impl PointRead for Held<'_> {
-    #[inline(always)]
-    fn index_of(&self, p: DVec3) -> Option<DVec3> {
-        let last = self.0.shape.cells.map(|n| (n - 1) as f64);
-        self.0
-            .index_coords(p)
-            .map(|u| u.clamp(DVec3::ZERO, DVec3::from_array(last)))
     }
 
     #[inline(always)]
