@@ -228,6 +228,29 @@ fn only_regular_files_are_read() {
             "{stderr}"
         );
     }
+
+    // A shape file that is a FIFO is refused the same way.
+    let pipe = dir.path().join("mesh.obj");
+    assert!(
+        Command::new("mkfifo")
+            .arg(&pipe)
+            .status()
+            .unwrap()
+            .success()
+    );
+    let script = dir.path().join("shape.felt");
+    std::fs::write(
+        &script,
+        format!("shape s = loadshape({:?});\n", pipe.to_str().unwrap()),
+    )
+    .unwrap();
+    let out = felt_within(&["run", script.to_str().unwrap()], limit);
+    assert_eq!(out.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("shape.felt:1:") && stderr.contains("not a regular file"),
+        "{stderr}"
+    );
 }
 
 /// Drives `felt repl` in a tmux pane: a function over several lines, a call, an error, and a

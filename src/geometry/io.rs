@@ -36,8 +36,18 @@ fn kind(path: &Path) -> Outcome<Kind> {
 /// Reads a mesh from an `.obj` or `.ply` file.
 pub fn load_mesh(path: &Path) -> Outcome<Mesh> {
     let kind = kind(path)?;
-    let bytes = std::fs::read(path)
-        .map_err(|e| Failure::new(format!("cannot read shape file '{}': {e}", path.display())))?;
+    let cannot = |reason: &dyn std::fmt::Display| {
+        Failure::new(format!(
+            "cannot read shape file '{}': {reason}",
+            path.display()
+        ))
+    };
+    // Only regular files: a device such as /dev/zero streams forever and a FIFO blocks.
+    let metadata = std::fs::metadata(path).map_err(|e| cannot(&e))?;
+    if !metadata.is_file() {
+        return Err(cannot(&"not a regular file (a directory, device or pipe)"));
+    }
+    let bytes = std::fs::read(path).map_err(|e| cannot(&e))?;
     let mesh = match kind {
         Kind::Obj => parse_obj(&bytes),
         Kind::Ply => parse_ply(&bytes),
