@@ -1,0 +1,95 @@
+//! Hash-consing: the one table through which every node is made, so that the same operation on
+//! the same children is always the same node.
+//!
+//! The one key decision: the table holds weak references, keyed by the operation and its
+//! children's ids, so it never keeps a graph alive; dead entries are swept out when the table
+//! has doubled since the last sweep.
+
+use super::{Node, NodeRef, Op};
+use std::collections::HashMap;
+use std::hash::{Hash, Hasher};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, LazyLock, Mutex, Weak};
+
+/// The identity of an operation on identified children.
+#[derive(PartialEq, Eq, Hash)]
+struct Key {
+    tag: u8,
+    payload: u64,
+    children: Vec<u64>,
+}
+
+fn key_of(op: &Op) -> Key {
+    let ids = |v: &[&NodeRef]| v.iter().map(|n| n.id).collect::<Vec<_>>();
+    let (tag, payload, children) = match op {
+        // Constants are keyed by bits, so 0.0 and -0.0 stay distinct.
+        Op::Const(c) => (0, c.to_bits(), Vec::new()),
+        Op::X => (1, 0, Vec::new()),
+        Op::Y => (2, 0, Vec::new()),
+        Op::Z => (3, 0, Vec::new()),
+        Op::Unary(m, a) => (4, hash_of(m), ids(&[a])),
+        Op::Binary(b, x, y) => (5, hash_of(b), ids(&[x, y])),
+        Op::Select(c, a, b) => (6, 0, ids(&[c, a, b])),
+        Op::Kernel(k, args) => {
+            let (t, p) = k.key();
+            (
+                7,
+                p ^ ((t as u64) << 56),
+                args.iter().map(|a| a.id).collect(),
+            )
+        }
+        Op::Output(k, i) => (8, *i as u64, ids(&[k])),
+    };
+    Key {
+        tag,
+        payload,
+        children,
+    }
+}
+
+fn hash_of<T: Hash>(t: &T) -> u64 {
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    t.hash(&mut h);
+    h.finish()
+}
+
+struct Table {
+    nodes: HashMap<Key, Weak<Node>>,
+    /// Size at which dead entries are next swept out.
+    sweep_at: usize,
+}
+
+static TABLE: LazyLock<Mutex<Table>> = LazyLock::new(|| {
+    Mutex::new(Table {
+        nodes: HashMap::new(),
+        sweep_at: 1 << 16,
+    })
+});
+static NEXT_ID: AtomicU64 = AtomicU64::new(1);
+
+/// The unique node for `op`, made if it does not exist yet. No simplification.
+pub(super) fn intern(op: Op) -> NodeRef {
+    let key = key_of(&op);
+    // A poisoned table only means another thread panicked while holding it; the map itself is
+    // still consistent (entries are inserted whole), so keep using it.
+    let mut table = TABLE.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(node) = table.nodes.get(&key).and_then(Weak::upgrade) {
+        return node;
+    }
+    let node = Arc::new(Node {
+        id: NEXT_ID.fetch_add(1, Ordering::Relaxed),
+        op,
+    });
+    table.nodes.insert(key, Arc::downgrade(&node));
+    if table.nodes.len() >= table.sweep_at {
+        table.nodes.retain(|_, w| w.strong_count() > 0);
+        table.sweep_at = (table.nodes.len() * 2).max(1 << 16);
+    }
+    node
+}
+
+/// Entries in the hash-consing table: every live node, plus dead ones not yet swept. A cheap
+/// upper bound on the size of any one graph.
+pub fn table_len() -> usize {
+    TABLE.lock().unwrap_or_else(|e| e.into_inner()).nodes.len()
+}
