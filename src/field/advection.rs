@@ -42,7 +42,7 @@ impl Scheme {
     /// The scheme a script names.
     pub fn named(name: &str) -> Outcome<Scheme> {
         match name {
-            "semilagrangian" | "sl" => Ok(Scheme::SemiLagrangian),
+            "semilagrangian" => Ok(Scheme::SemiLagrangian),
             "maccormack" => Ok(Scheme::MacCormack),
             "bfecc" => Ok(Scheme::Bfecc),
             other => Err(Failure::new(format!(

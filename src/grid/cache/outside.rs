@@ -66,17 +66,13 @@ impl GridSource for OutsideRead {
     }
 
     fn sample(&self, interp: Interp, xs: &[f64], ys: &[f64], zs: &[f64], out: &mut [f64]) {
-        match self.outside {
-            Outside::Extrapolate => self.cache.sample_extrapolated(interp, xs, ys, zs, out),
-            Outside::Hold => self.cache.sample_held(interp, xs, ys, zs, out),
-        }
+        self.cache
+            .sample_outside(self.outside, interp, xs, ys, zs, out);
     }
 
     fn sample_gradient(&self, interp: Interp, xs: &[f64], ys: &[f64], zs: &[f64], out: &mut [f64]) {
-        match self.outside {
-            Outside::Extrapolate => self.cache.gradient_extrapolated(interp, xs, ys, zs, out),
-            Outside::Hold => self.cache.gradient_held(interp, xs, ys, zs, out),
-        }
+        self.cache
+            .gradient_outside(self.outside, interp, xs, ys, zs, out);
     }
 
     fn bounds(&self) -> Aabb {

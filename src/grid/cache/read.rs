@@ -19,6 +19,7 @@
 #[cfg(test)]
 mod tests;
 
+use super::outside::Outside;
 use super::{BRICK, Cache, lock};
 use crate::grid::interp::{AxisStencil, axis_stencil};
 use crate::grid::points::{self, PointRead};
@@ -182,50 +183,49 @@ impl Cache {
         }
     }
 
-    /// Interpolated values at world points, extrapolating linearly outside the domain box
-    /// from the two outermost cells along each axis (instead of reading the background).
-    pub fn sample_extrapolated(
+    /// Interpolated values at world points with other edges than the default (see
+    /// `outside`): extrapolated beyond the box, or held in the half-cell border.
+    pub fn sample_outside(
         &self,
+        outside: Outside,
         interp: Interp,
         xs: &[f64],
         ys: &[f64],
         zs: &[f64],
         out: &mut [f64],
     ) {
-        points::values_of(&Edges::<false>(self), self.width, interp, xs, ys, zs, out);
+        match outside {
+            Outside::Extrapolate => {
+                points::values_of(&Edges::<false>(self), self.width, interp, xs, ys, zs, out)
+            }
+            Outside::Hold => {
+                points::values_of(&Edges::<true>(self), self.width, interp, xs, ys, zs, out)
+            }
+        }
     }
 
-    /// Interpolated values at world points, holding the outermost cells' values in the
-    /// half-cell border inside the faces (the background beyond).
-    pub fn sample_held(&self, interp: Interp, xs: &[f64], ys: &[f64], zs: &[f64], out: &mut [f64]) {
-        points::values_of(&Edges::<true>(self), self.width, interp, xs, ys, zs, out);
-    }
-
-    /// The derivative of the interpolant at the held point (in the border, the edge cells' slope).
-    pub fn gradient_held(
+    /// The derivative of [`Cache::sample_outside`]'s interpolant (in a held border, the edge
+    /// cells' slope).
+    pub fn gradient_outside(
         &self,
+        outside: Outside,
         interp: Interp,
         xs: &[f64],
         ys: &[f64],
         zs: &[f64],
         out: &mut [f64],
     ) {
-        points::gradients_of(&Edges::<true>(self), self.width, interp, xs, ys, zs, out);
+        match outside {
+            Outside::Extrapolate => {
+                points::gradients_of(&Edges::<false>(self), self.width, interp, xs, ys, zs, out)
+            }
+            Outside::Hold => {
+                points::gradients_of(&Edges::<true>(self), self.width, interp, xs, ys, zs, out)
+            }
+        }
     }
 
-    /// The exact derivative of [`Cache::sample_extrapolated`].
-    pub fn gradient_extrapolated(
-        &self,
-        interp: Interp,
-        xs: &[f64],
-        ys: &[f64],
-        zs: &[f64],
-        out: &mut [f64],
-    ) {
-        points::gradients_of(&Edges::<false>(self), self.width, interp, xs, ys, zs, out);
-    }
-
-    /// A conservative range of [`Cache::sample_extrapolated`] over `region`. Inside the box it
+    /// A conservative range of the extrapolating read over `region`. Inside the box it
     /// is the ordinary range; `d` cells beyond the outermost centre along an axis, linear
     /// weights `(1 + d, −d)` sum to `1 + 2d` in absolute value, so the samples' range is
     /// widened by the product of those sums.

@@ -91,7 +91,7 @@ pub fn project_divergence_free_with(
     );
 
     let mut work = SPECTRA.take(half.len);
-    let mut spectra: Vec<Vec<Complex64>> = (0..3).map(|_| SPECTRA.take(half.len)).collect();
+    let mut spectra: [Vec<Complex64>; 3] = std::array::from_fn(|_| SPECTRA.take(half.len));
     for (component, spectrum) in data.chunks(grid.len).zip(spectra.iter_mut()) {
         work.par_chunks_mut(h)
             .zip(component.par_chunks(nx))
@@ -115,9 +115,7 @@ pub fn project_divergence_free_with(
     let mut kappa: [Vec<f64>; 3] = std::array::from_fn(|a| grid.derivative_symbols(a, operator));
     kappa[0].truncate(h);
     {
-        let [sx, sy, sz] = &mut spectra[..] else {
-            unreachable!("three components")
-        };
+        let [sx, sy, sz] = &mut spectra;
         sx.par_chunks_mut(nz)
             .zip(sy.par_chunks_mut(nz))
             .zip(sz.par_chunks_mut(nz))
@@ -168,7 +166,7 @@ pub fn project_divergence_free_with(
                 },
             );
     }
-    spectra.push(work);
+    SPECTRA.give(work);
     for buffer in spectra {
         SPECTRA.give(buffer);
     }
