@@ -1,4 +1,4 @@
-//! The `felt` command: run, check, explore (REPL) and look up (doc) field scripts.
+//! The `felt` command: run, study, check, explore (REPL) and look up (doc) field scripts.
 //!
 //! The one key decision: the whole run happens on a thread with a large stack, because scripts
 //! may build field graphs thousands of nodes deep (long `advect` chains) and the checker,
@@ -52,6 +52,45 @@ enum Command {
         /// Largest single grid, in megabytes (default: a quarter of physical memory).
         #[arg(long, value_name = "MB", value_parser = clap::value_parser!(u64).range(1..))]
         memory_limit: Option<u64>,
+        /// Write outputs named by relative paths under DIR (created if missing) instead of
+        /// the current folder; inputs are still read from the current folder.
+        #[arg(long, value_name = "DIR")]
+        output_dir: Option<PathBuf>,
+    },
+    /// Measure what accuracy costs: run a script once per setting of its swept params and
+    /// compare each run's outputs with a reference setting's.
+    #[command(long_about = STUDY_ABOUT)]
+    Study {
+        /// The script to study.
+        file: PathBuf,
+        /// A param and the values to try: `--sweep NAME=v1,v2,...` (repeatable; the study
+        /// runs every combination).
+        #[arg(long = "sweep", value_name = "NAME=V1,V2,...", value_parser = parse_assignment, required = true)]
+        sweeps: Vec<(String, String)>,
+        /// The value a param takes in the reference: `--reference NAME=VALUE` (repeatable).
+        /// Each setting is compared with itself with these values applied.
+        #[arg(long = "reference", value_name = "NAME=VALUE", value_parser = parse_assignment, required = true)]
+        reference: Vec<(String, String)>,
+        /// Fix a param for every run, reference included: `--set name=value` (repeatable).
+        #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_assignment)]
+        set: Vec<(String, String)>,
+        /// Run each setting N times and report the median times.
+        #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=1000))]
+        repeat: u32,
+        /// The study's folder: runs, the cached references, study.csv and the plots
+        /// (default: SCRIPT-study in the current folder).
+        #[arg(long, value_name = "DIR")]
+        out: Option<PathBuf>,
+        /// Worker threads for each run (default: all cores).
+        #[arg(
+            long,
+            value_name = "N",
+            value_parser = clap::value_parser!(u16).range(1..=MAX_THREADS as i64)
+        )]
+        threads: Option<u16>,
+        /// The memory limit of each run, in megabytes, as for `felt run`.
+        #[arg(long, value_name = "MB", value_parser = clap::value_parser!(u64).range(1..))]
+        memory_limit: Option<u64>,
     },
     /// Check a script for errors without running it.
     Check {
@@ -74,6 +113,40 @@ enum Command {
         name: Option<String>,
     },
 }
+
+const STUDY_ABOUT: &str = "\
+Measure what accuracy costs: run a script once per setting of its swept params and compare \
+each run's outputs with a reference setting's.
+
+Every combination of the --sweep values is one setting. Each setting runs as its own \
+`felt run` process, with the values passed as --set does and its relative outputs written \
+to a folder of its own, and is measured for wall time, CPU time and peak memory. Its \
+reference is the same setting with the --reference values applied (a --reference may name a \
+param that is not swept, such as a finer resolution for the reference alone). What each run \
+wrote and printed is compared with what its reference wrote and printed:
+
+  images (.exr, .png)   RMSE, PSNR and relative MSE of RGBA, and SSIM of the displayed colour
+  VDB files (.vdb)      RMSE and largest error over the union of active voxels, per grid
+  printed numbers       each number's value, absolute and relative error; a line's label is
+                        its text without the numbers (print(\"area error\", e) is \"area error\")
+
+The study prints a table and writes, into --out: study.csv (one row per setting), \
+pareto-MEASURE.svg (each error against seconds on log-log axes, the Pareto front marked) and \
+MEASURE-vs-PARAM.svg (each error against each swept param). Errors plotted are the RMSEs and \
+largest errors, relative errors of printed numbers, and printed numbers whose label contains \
+\"error\" (errors the script measured itself, against an exact answer), shown as they are.
+
+Reference runs are cached in --out/reference, keyed by the text of the script and every file \
+it imports, felt's version and the reference's params: running the study again with more \
+settings reuses them. A setting whose run fails is reported and the study goes on.
+
+Exit status: 0 when every setting ran and was compared; 1 when the script has errors or a \
+run (or the reference) failed; 2 for bad usage: unknown params, values of the wrong type, \
+empty sweeps, or settings that write other files than their reference.
+
+Example:
+  felt study examples/studies/raymarch_step.felt --sweep step=0.04,0.02,0.01 \\
+      --reference step=0.0025 --set scene=cloud --out step-study";
 
 fn parse_assignment(text: &str) -> Result<(String, String), String> {
     match text.split_once('=') {
@@ -135,9 +208,16 @@ fn run(cli: Cli) -> ExitCode {
             threads,
             profile,
             memory_limit,
+            output_dir,
         } => {
             if let Err(code) = set_threads(threads) {
                 return code;
+            }
+            if let Some(dir) = output_dir
+                && let Err(e) = felt::output::set_directory(&dir)
+            {
+                eprintln!("felt: --output-dir: {e}");
+                return ExitCode::from(2);
             }
             if let Some(megabytes) = memory_limit {
                 felt::grid::domain::set_memory_limit(megabytes.saturating_mul(1 << 20));
@@ -168,6 +248,25 @@ fn run(cli: Cli) -> ExitCode {
             }
             code
         }
+        Command::Study {
+            file,
+            sweeps,
+            reference,
+            set,
+            repeat,
+            out,
+            threads,
+            memory_limit,
+        } => ExitCode::from(felt::study::run(&felt::study::StudyArgs {
+            script: file,
+            sweeps,
+            reference,
+            set,
+            repeat,
+            out,
+            threads,
+            memory_limit,
+        })),
         Command::Check { file } => {
             let mut session = match Session::new(Box::new(std::io::stdout())) {
                 Ok(s) => s,

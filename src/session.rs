@@ -12,7 +12,7 @@ use crate::syntax::ast::{DeclInit, Item, Program, StmtKind};
 use crate::syntax::span::{FileId, SourceMap, Span};
 use std::cell::RefCell;
 use std::collections::HashSet;
-use std::io::{Read, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::rc::Rc;
 
@@ -185,8 +185,8 @@ impl Session {
         diags
     }
 
-    /// Verifies that every `--set NAME=VALUE` names a `param` of the loaded script.
-    pub fn check_overrides(&self, units: &[Unit]) -> Result<(), Diagnostic> {
+    /// The `param` declarations of the loaded script, in order, with their declared types.
+    pub fn params(units: &[Unit]) -> Vec<(String, crate::check::types::Type)> {
         let mut params = Vec::new();
         for unit in units {
             for item in &unit.program.items {
@@ -194,13 +194,20 @@ impl Session {
                     && let StmtKind::Decl {
                         is_param: true,
                         name,
+                        ty,
                         ..
                     } = &stmt.kind
                 {
-                    params.push(name.name.clone());
+                    params.push((name.name.clone(), crate::check::types::Type::from_expr(ty)));
                 }
             }
         }
+        params
+    }
+
+    /// Verifies that every `--set NAME=VALUE` names a `param` of the loaded script.
+    pub fn check_overrides(&self, units: &[Unit]) -> Result<(), Diagnostic> {
+        let params: Vec<String> = Self::params(units).into_iter().map(|(n, _)| n).collect();
         for name in self.interp.overrides.keys() {
             if !params.contains(name) {
                 let mut d = Diagnostic::bare(
@@ -367,61 +374,10 @@ impl Session {
 /// enough that a wrong path (a log, a disk image) fails at once instead of filling memory.
 pub const MAX_SCRIPT_BYTES: u64 = 64 << 20;
 
-/// The bytes of a script or an import. Only regular files are read (a device such as
-/// `/dev/zero` streams forever, a FIFO blocks), and at most `MAX_SCRIPT_BYTES` of them: the
-/// read is capped too, since a file may grow after its size was looked at.
+/// The bytes of a script or an import: a regular file of at most `MAX_SCRIPT_BYTES`.
 fn read_script(path: &Path) -> Result<Vec<u8>, String> {
-    let cannot = |reason: String| format!("cannot read `{}`: {reason}", path.display());
-    let too_large = || {
-        cannot(format!(
-            "it is larger than {} MiB, the most a script may be",
-            MAX_SCRIPT_BYTES >> 20
-        ))
-    };
-    let metadata = std::fs::metadata(path).map_err(|e| cannot(e.to_string()))?;
-    if !metadata.is_file() {
-        return Err(cannot(format!(
-            "it is {}, not a regular file",
-            describe_file_type(metadata.file_type())
-        )));
-    }
-    if metadata.len() > MAX_SCRIPT_BYTES {
-        return Err(too_large());
-    }
-    let file = std::fs::File::open(path).map_err(|e| cannot(e.to_string()))?;
-    let mut bytes = Vec::new();
-    file.take(MAX_SCRIPT_BYTES + 1)
-        .read_to_end(&mut bytes)
-        .map_err(|e| cannot(e.to_string()))?;
-    if bytes.len() as u64 > MAX_SCRIPT_BYTES {
-        return Err(too_large());
-    }
-    Ok(bytes)
-}
-
-/// "a directory", "a FIFO", … for a file that is not a regular one.
-fn describe_file_type(kind: std::fs::FileType) -> &'static str {
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::FileTypeExt;
-        if kind.is_char_device() {
-            return "a character device";
-        }
-        if kind.is_block_device() {
-            return "a block device";
-        }
-        if kind.is_fifo() {
-            return "a FIFO (named pipe)";
-        }
-        if kind.is_socket() {
-            return "a socket";
-        }
-    }
-    if kind.is_dir() {
-        "a directory"
-    } else {
-        "a special file"
-    }
+    crate::input::read_whole(path, MAX_SCRIPT_BYTES, "a script")
+        .map_err(|reason| format!("cannot read `{}`: {reason}", path.display()))
 }
 
 fn display_name(path: &Path) -> String {

@@ -248,7 +248,7 @@ fn only_regular_files_are_read() {
     assert_eq!(out.status.code(), Some(1));
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
-        stderr.contains("shape.felt:1:") && stderr.contains("not a regular file"),
+        stderr.contains("shape.felt:1:") && stderr.contains("it is a FIFO (named pipe)"),
         "{stderr}"
     );
 }

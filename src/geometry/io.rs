@@ -42,12 +42,10 @@ pub fn load_mesh(path: &Path) -> Outcome<Mesh> {
             path.display()
         ))
     };
-    // Only regular files: a device such as /dev/zero streams forever and a FIFO blocks.
-    let metadata = std::fs::metadata(path).map_err(|e| cannot(&e))?;
-    if !metadata.is_file() {
-        return Err(cannot(&"not a regular file (a directory, device or pipe)"));
-    }
-    let bytes = std::fs::read(path).map_err(|e| cannot(&e))?;
+    // A shape file is read whole, so it may be no larger than the memory budget.
+    let limit = crate::grid::domain::memory_limit();
+    let bytes = crate::input::read_whole(&crate::output::source(path), limit, "a shape file")
+        .map_err(|e| cannot(&e))?;
     let mesh = match kind {
         Kind::Obj => parse_obj(&bytes),
         Kind::Ply => parse_ply(&bytes),
@@ -64,16 +62,8 @@ pub fn save_mesh(mesh: &Mesh, path: &Path) -> Outcome<()> {
         Kind::Obj => write_obj(mesh)?,
         Kind::Ply => write_ply(mesh)?,
     };
-    let cannot = |e: std::io::Error| {
-        Failure::new(format!("cannot write shape file '{}': {e}", path.display()))
-    };
-    let directory = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    let mut file = tempfile::NamedTempFile::new_in(directory).map_err(cannot)?;
-    file.write_all(&bytes).map_err(cannot)?;
-    file.as_file().sync_all().map_err(cannot)?;
-    file.persist(path).map_err(|e| cannot(e.error))?;
-    Ok(())
+    crate::output::write_atomically(path, |file| {
+        file.write_all(&bytes).map_err(|e| e.to_string())
+    })
+    .map_err(|e| Failure::new(format!("cannot write shape file '{}': {e}", path.display())))
 }

@@ -12,6 +12,8 @@
 pub mod builtins;
 mod eval;
 mod exec;
+
+pub use exec::parse_override;
 pub mod ops;
 pub mod registry;
 pub mod suggest;

@@ -7,9 +7,9 @@
 //! clipped to [0, 1]; the alpha is raised where needed to at least the largest colour channel
 //! (emission in a thin medium can be brighter than it is opaque); the colour is divided by that
 //! alpha (PNG stores straight colour) and encoded with the sRGB curve. Composited over black
-//! such a PNG shows exactly the clipped premultiplied colour. The one key decision: files are
-//! written to a temporary file in the same directory and renamed into place, so a crash or a
-//! full disk never leaves a half-written image under the requested name.
+//! such a PNG shows exactly the clipped premultiplied colour. Files are written
+//! through `output::write_atomically`, so a crash or a full disk never leaves a half-written
+//! image under the requested name.
 
 use crate::failure::{Failure, Outcome};
 use std::collections::HashSet;
@@ -98,31 +98,13 @@ pub fn write_image(path: &Path, image: &Image) -> Outcome<()> {
     }
 }
 
-/// Writes through a temporary file beside `path`, then renames it into place.
+/// Writes through `output::write_atomically`, with the image's own message on failure.
 fn atomically(
     path: &Path,
     write: impl FnOnce(&mut std::fs::File) -> Result<(), String>,
 ) -> Outcome<()> {
-    let shown = path.display();
-    let directory = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    let mut temporary = tempfile::Builder::new()
-        .prefix(".felt-image-")
-        .suffix(".tmp")
-        .tempfile_in(directory)
-        .map_err(|e| Failure::new(format!("cannot write image '{shown}': {e}")))?;
-    write(temporary.as_file_mut())
-        .map_err(|e| Failure::new(format!("cannot write image '{shown}': {e}")))?;
-    temporary
-        .as_file()
-        .sync_all()
-        .map_err(|e| Failure::new(format!("cannot write image '{shown}': {e}")))?;
-    temporary
-        .persist(path)
-        .map_err(|e| Failure::new(format!("cannot write image '{shown}': {}", e.error)))?;
-    Ok(())
+    crate::output::write_atomically(path, write)
+        .map_err(|e| Failure::new(format!("cannot write image '{}': {e}", path.display())))
 }
 
 fn write_exr(file: &mut std::fs::File, image: &Image) -> Result<(), String> {

@@ -56,15 +56,9 @@ fn load(path: &Path) -> Outcome<Vec<u8>> {
             path.display()
         ))
     };
-    // Checked before opening: opening a FIFO blocks until something writes to it, and a
-    // device such as /dev/zero never ends.
-    let metadata = std::fs::metadata(path).map_err(|e| {
-        cannot(&e).with_help("check the path; it is relative to the directory felt runs in")
-    })?;
-    if !metadata.is_file() {
-        return Err(cannot(&"not a regular file (a directory, device or pipe)"));
-    }
-    std::fs::read(path).map_err(|e| {
+    // A VDB file is read whole, so it may be no larger than the memory budget.
+    let limit = crate::grid::domain::memory_limit();
+    crate::input::read_whole(&crate::output::source(path), limit, "a VDB file").map_err(|e| {
         cannot(&e).with_help("check the path; it is relative to the directory felt runs in")
     })
 }

@@ -23,18 +23,10 @@ const LIBRARY_VERSION: (u32, u32) = (10, 0);
 /// Writes `grids` to `path`, replacing any file there only once the new one is complete.
 pub fn write_file(path: &Path, grids: &[VdbGrid], compression: Compression) -> Outcome<()> {
     let bytes = write_bytes(grids, compression)?;
-    let fail = |e: std::io::Error| {
-        Failure::new(format!("cannot write VDB file '{}': {e}", path.display()))
-    };
-    let directory = match path.parent() {
-        Some(parent) if !parent.as_os_str().is_empty() => parent,
-        _ => Path::new("."),
-    };
-    let mut temporary = tempfile::NamedTempFile::new_in(directory).map_err(fail)?;
-    temporary.write_all(&bytes).map_err(fail)?;
-    temporary.as_file().sync_all().map_err(fail)?;
-    temporary.persist(path).map_err(|e| fail(e.error))?;
-    Ok(())
+    crate::output::write_atomically(path, |file| {
+        file.write_all(&bytes).map_err(|e| e.to_string())
+    })
+    .map_err(|e| Failure::new(format!("cannot write VDB file '{}': {e}", path.display())))
 }
 
 /// The bytes of a VDB file holding `grids`.

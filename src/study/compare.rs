@@ -1,0 +1,552 @@
+//! Comparing what a run produced with what its reference produced.
+//!
+//! Three kinds of output are compared, each by the measures its users read:
+//! - **Images** (`.exr`, `.png`): RMSE over the RGBA channels, PSNR against a peak of 1 (or the
+//!   reference's brightest channel where that is brighter), relative MSE (each channel's squared
+//!   error over the reference's square plus 0.01, the form renderers report), and SSIM of the
+//!   displayed colour. EXR is compared in its stored linear, premultiplied values; PNG in its
+//!   stored 8-bit values scaled to [0, 1]. SSIM needs images of at least 11 × 11 pixels.
+//! - **VDB files**: for each grid of the reference, RMSE and largest error over the union of
+//!   the two grids' active voxels (the vector difference's length for vector grids). The two
+//!   grids must share their voxel transform.
+//! - **Printed numbers**: every number on each line of standard output. A line's label is its
+//!   text without the numbers; the k-th line with a label is matched with the reference's k-th
+//!   line with that label, number by number.
+
+use crate::grid::vdb::{self, VdbGrid};
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+/// One measured quantity of one setting, named for the table, the CSV and the plots.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Measure {
+    /// `image.exr rmse`, `density.vdb:density max`, `area error`.
+    pub name: String,
+    pub value: f64,
+    pub kind: Kind,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kind {
+    /// An error against the reference: plotted, smaller is better.
+    Error,
+    /// A similarity (PSNR, SSIM): larger is better.
+    Similarity,
+    /// A number the script printed, shown as it is; plotted as an error when its label says
+    /// it is one.
+    Printed,
+}
+
+impl Measure {
+    fn new(name: String, value: f64, kind: Kind) -> Measure {
+        Measure { name, value, kind }
+    }
+
+    /// Whether the plots show this measure as an error to minimise.
+    pub fn plotted(&self) -> bool {
+        match self.kind {
+            Kind::Error => {
+                self.name.ends_with(" rmse")
+                    || self.name.ends_with(" max")
+                    || self.name.ends_with(" rel")
+            }
+            Kind::Printed => is_error_label(&self.name),
+            Kind::Similarity => false,
+        }
+    }
+}
+
+/// Whether a printed line's label says it is an error the script measured itself.
+fn is_error_label(label: &str) -> bool {
+    label.to_lowercase().contains("error")
+}
+
+/// Every file under `directory`, as sorted paths relative to it.
+pub fn files_under(directory: &Path) -> std::io::Result<Vec<PathBuf>> {
+    let mut found = Vec::new();
+    let mut pending = vec![directory.to_path_buf()];
+    while let Some(dir) = pending.pop() {
+        let entries = match std::fs::read_dir(&dir) {
+            Ok(entries) => entries,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => continue,
+            Err(e) => return Err(e),
+        };
+        for entry in entries {
+            let entry = entry?;
+            let path = entry.path();
+            let kind = entry.file_type()?;
+            if kind.is_dir() {
+                pending.push(path);
+            } else if kind.is_file()
+                && let Ok(relative) = path.strip_prefix(directory)
+            {
+                found.push(relative.to_path_buf());
+            }
+        }
+    }
+    found.sort();
+    Ok(found)
+}
+
+/// The measures of one run's outputs against its reference's. An error says why the two
+/// cannot be compared (different files, sizes or grids).
+pub fn compare(
+    run: &Path,
+    run_stdout: &str,
+    reference: &Path,
+    reference_stdout: &str,
+) -> Result<Vec<Measure>, String> {
+    let ours = files_under(run).map_err(|e| format!("cannot list its outputs: {e}"))?;
+    let theirs =
+        files_under(reference).map_err(|e| format!("cannot list the reference's outputs: {e}"))?;
+    let missing: Vec<String> = theirs
+        .iter()
+        .filter(|f| !ours.contains(f))
+        .map(|f| f.display().to_string())
+        .collect();
+    let extra: Vec<String> = ours
+        .iter()
+        .filter(|f| !theirs.contains(f))
+        .map(|f| f.display().to_string())
+        .collect();
+    if !missing.is_empty() || !extra.is_empty() {
+        let mut parts = Vec::new();
+        if !missing.is_empty() {
+            parts.push(format!(
+                "did not write {} (the reference did)",
+                missing.join(", ")
+            ));
+        }
+        if !extra.is_empty() {
+            parts.push(format!(
+                "wrote {}, which the reference did not",
+                extra.join(", ")
+            ));
+        }
+        return Err(format!(
+            "it writes different files from its reference: {}; a study compares files of the \
+             same name, so output names must not depend on the swept params",
+            parts.join("; ")
+        ));
+    }
+    let mut measures = Vec::new();
+    for file in &theirs {
+        let name = file.display().to_string();
+        let (a, b) = (run.join(file), reference.join(file));
+        let extension = file
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        let found = match extension.as_deref() {
+            Some("exr") | Some("png") => compare_images(&name, &a, &b),
+            Some("vdb") => compare_vdb(&name, &a, &b),
+            _ => Ok(Vec::new()),
+        };
+        measures.extend(found.map_err(|e| format!("{name}: {e}"))?);
+    }
+    measures.extend(compare_printed(run_stdout, reference_stdout)?);
+    Ok(measures)
+}
+
+/// An image as RGBA samples in [0, 1]-ish units, row-major.
+struct Pixels {
+    width: usize,
+    height: usize,
+    rgba: Vec<[f32; 4]>,
+}
+
+fn read_image(path: &Path) -> Result<Pixels, String> {
+    let is_png = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+    if is_png {
+        let file = std::fs::File::open(path).map_err(|e| e.to_string())?;
+        let mut decoder = png::Decoder::new(std::io::BufReader::new(file));
+        decoder.set_transformations(png::Transformations::EXPAND | png::Transformations::STRIP_16);
+        let mut reader = decoder.read_info().map_err(|e| e.to_string())?;
+        let size = reader
+            .output_buffer_size()
+            .ok_or_else(|| String::from("the image is too large"))?;
+        let mut buffer = vec![0; size];
+        let info = reader.next_frame(&mut buffer).map_err(|e| e.to_string())?;
+        let channels = info.color_type.samples();
+        let (width, height) = (info.width as usize, info.height as usize);
+        let rgba = buffer[..info.buffer_size()]
+            .chunks_exact(channels)
+            .map(|p| {
+                let v = |i: usize| p[i] as f32 / 255.0;
+                match channels {
+                    1 => [v(0), v(0), v(0), 1.0],
+                    2 => [v(0), v(0), v(0), v(1)],
+                    3 => [v(0), v(1), v(2), 1.0],
+                    _ => [v(0), v(1), v(2), v(3)],
+                }
+            })
+            .collect();
+        return Ok(Pixels {
+            width,
+            height,
+            rgba,
+        });
+    }
+    let image = exr::prelude::read_first_rgba_layer_from_file(
+        path,
+        |size, _| (size.width(), vec![[0f32; 4]; size.width() * size.height()]),
+        |(width, pixels), position, (r, g, b, a): (f32, f32, f32, f32)| {
+            pixels[position.y() * *width + position.x()] = [r, g, b, a]
+        },
+    )
+    .map_err(|e| e.to_string())?;
+    let size = image.layer_data.size;
+    Ok(Pixels {
+        width: size.width(),
+        height: size.height(),
+        rgba: image.layer_data.channel_data.pixels.1,
+    })
+}
+
+fn compare_images(name: &str, run: &Path, reference: &Path) -> Result<Vec<Measure>, String> {
+    let a = read_image(run)?;
+    let b = read_image(reference).map_err(|e| format!("the reference's copy: {e}"))?;
+    if (a.width, a.height) != (b.width, b.height) {
+        return Err(format!(
+            "it is {}×{} but the reference's is {}×{}",
+            a.width, a.height, b.width, b.height
+        ));
+    }
+    let (mut squared, mut relative, mut peak) = (0.0f64, 0.0f64, 1.0f64);
+    for (p, q) in a.rgba.iter().zip(&b.rgba) {
+        for c in 0..4 {
+            let (x, y) = (p[c] as f64, q[c] as f64);
+            let d = x - y;
+            squared += d * d;
+            relative += d * d / (y * y + 0.01);
+            peak = peak.max(y);
+        }
+    }
+    let samples = (4 * a.rgba.len()).max(1) as f64;
+    let mse = squared / samples;
+    let psnr = if mse == 0.0 {
+        f64::INFINITY
+    } else {
+        10.0 * (peak * peak / mse).log10()
+    };
+    let mut measures = vec![
+        Measure::new(format!("{name} rmse"), mse.sqrt(), Kind::Error),
+        Measure::new(format!("{name} psnr"), psnr, Kind::Similarity),
+        Measure::new(format!("{name} relmse"), relative / samples, Kind::Error),
+    ];
+    if a.width >= 11 && a.height >= 11 {
+        let ssim = iqa::ssim(
+            &displayed(&a)?,
+            &displayed(&b)?,
+            iqa::SsimOptions::default(),
+        )
+        .map_err(|e| e.to_string())?;
+        measures.push(Measure::new(format!("{name} ssim"), ssim, Kind::Similarity));
+    }
+    Ok(measures)
+}
+
+/// The colour as it is shown over black: clipped to [0, 1] and sRGB-encoded, in 16 bits.
+fn displayed(image: &Pixels) -> Result<iqa::Image<iqa::Srgb16>, String> {
+    let encode = |linear: f32| {
+        let x = (linear as f64).clamp(0.0, 1.0);
+        let s = if x <= 0.003_130_8 {
+            12.92 * x
+        } else {
+            1.055 * x.powf(1.0 / 2.4) - 0.055
+        };
+        (s * 65535.0).round() as u16
+    };
+    let data = image
+        .rgba
+        .iter()
+        .flat_map(|p| [encode(p[0]), encode(p[1]), encode(p[2])])
+        .collect();
+    iqa::Image::srgb16(image.width as u32, image.height as u32, data).map_err(|e| e.to_string())
+}
+
+fn compare_vdb(name: &str, run: &Path, reference: &Path) -> Result<Vec<Measure>, String> {
+    let ours = vdb::read_file(run).map_err(|f| f.message)?;
+    let theirs =
+        vdb::read_file(reference).map_err(|f| format!("the reference's copy: {}", f.message))?;
+    let mut measures = Vec::new();
+    for grid in &theirs {
+        let label = if theirs.len() == 1 {
+            name.to_string()
+        } else {
+            format!("{name}:{}", grid.name)
+        };
+        let other = ours
+            .iter()
+            .find(|g| g.name == grid.name)
+            .ok_or_else(|| format!("it has no grid named '{}' (the reference has)", grid.name))?;
+        if other.components() != grid.components() {
+            return Err(format!(
+                "grid '{}' holds {} components, the reference's {}",
+                grid.name,
+                other.components(),
+                grid.components()
+            ));
+        }
+        if other.index_to_world != grid.index_to_world {
+            return Err(format!(
+                "grid '{}' has other voxels than the reference's (its voxel size or position \
+                 differs); compare caches on one domain",
+                grid.name
+            ));
+        }
+        let (rmse, max) = grid_errors(other, grid)?;
+        measures.push(Measure::new(format!("{label} rmse"), rmse, Kind::Error));
+        measures.push(Measure::new(format!("{label} max"), max, Kind::Error));
+    }
+    Ok(measures)
+}
+
+/// Voxels a comparison may visit: a billion takes minutes and is far past any cache a study
+/// is meant for.
+const MAX_COMPARED_VOXELS: u64 = 1 << 30;
+
+/// RMSE and largest error of `a` against `b` over the union of their active voxels.
+fn grid_errors(a: &VdbGrid, b: &VdbGrid) -> Result<(f64, f64), String> {
+    let n = b.components();
+    let (mut squared, mut max, mut count) = (0.0f64, 0.0f64, 0u64);
+    let mut visit = |ijk: [i32; 3]| {
+        let (x, y) = (a.probe(ijk).0, b.probe(ijk).0);
+        let d2: f64 = (0..n).map(|c| (x[c] as f64 - y[c] as f64).powi(2)).sum();
+        squared += d2;
+        max = max.max(d2.sqrt());
+        count += 1;
+    };
+    // The active voxels of `b`, then those of `a` that `b` does not have active.
+    for (grid, other) in [(b, None), (a, Some(b))] {
+        let voxels = active_voxels(grid);
+        if voxels > MAX_COMPARED_VOXELS {
+            return Err(format!("{voxels} active voxels are too many to compare"));
+        }
+        for_each_active(grid, |ijk| {
+            if other.is_none_or(|o| !o.probe(ijk).1) {
+                visit(ijk);
+            }
+        });
+    }
+    if count == 0 {
+        return Ok((0.0, 0.0));
+    }
+    Ok(((squared / count as f64).sqrt(), max))
+}
+
+fn active_voxels(grid: &VdbGrid) -> u64 {
+    let leaves: u64 = grid.leaves.iter().map(|l| l.active_count() as u64).sum();
+    let tiles: u64 = grid
+        .tiles
+        .iter()
+        .filter(|t| t.active)
+        .map(|t| (t.size as u64).pow(3))
+        .sum();
+    leaves + tiles
+}
+
+fn for_each_active(grid: &VdbGrid, mut f: impl FnMut([i32; 3])) {
+    for leaf in &grid.leaves {
+        for x in 0..8 {
+            for y in 0..8 {
+                for z in 0..8 {
+                    if leaf.is_active(vdb::VdbLeaf::offset(x, y, z)) {
+                        let o = leaf.origin;
+                        f([o[0] + x as i32, o[1] + y as i32, o[2] + z as i32]);
+                    }
+                }
+            }
+        }
+    }
+    for tile in grid.tiles.iter().filter(|t| t.active) {
+        let o = tile.origin;
+        for x in 0..tile.size {
+            for y in 0..tile.size {
+                for z in 0..tile.size {
+                    f([o[0] + x, o[1] + y, o[2] + z]);
+                }
+            }
+        }
+    }
+}
+
+/// One line of standard output that holds numbers.
+#[derive(Debug, PartialEq)]
+struct PrintedLine {
+    label: String,
+    numbers: Vec<f64>,
+}
+
+/// The lines of `text` that hold numbers, each with its label.
+fn printed_lines(text: &str) -> Vec<PrintedLine> {
+    text.lines()
+        .filter_map(|line| {
+            let mut label = Vec::new();
+            let mut numbers = Vec::new();
+            for token in line
+                .split(|c: char| c.is_whitespace() || "(),{}[]=:;".contains(c))
+                .filter(|t| !t.is_empty())
+            {
+                match token.parse::<f64>() {
+                    Ok(x) => numbers.push(x),
+                    Err(_) => label.push(token),
+                }
+            }
+            (!numbers.is_empty()).then(|| PrintedLine {
+                label: label.join(" "),
+                numbers,
+            })
+        })
+        .collect()
+}
+
+fn compare_printed(run: &str, reference: &str) -> Result<Vec<Measure>, String> {
+    let ours = printed_lines(run);
+    let theirs = printed_lines(reference);
+    let mut seen: HashMap<&str, usize> = HashMap::new();
+    let mut measures = Vec::new();
+    for (index, line) in theirs.iter().enumerate() {
+        let k = seen.entry(line.label.as_str()).or_insert(0);
+        *k += 1;
+        let occurrence = *k;
+        let base = match (line.label.is_empty(), occurrence) {
+            (true, _) => format!("line {}", index + 1),
+            (false, 1) => line.label.clone(),
+            (false, k) => format!("{} ({k})", line.label),
+        };
+        let Some(mine) = ours
+            .iter()
+            .filter(|l| l.label == line.label)
+            .nth(occurrence - 1)
+        else {
+            return Err(format!(
+                "it did not print `{base}` (the reference printed {})",
+                line.numbers
+                    .iter()
+                    .map(|x| x.to_string())
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            ));
+        };
+        if mine.numbers.len() != line.numbers.len() {
+            return Err(format!(
+                "`{base}` holds {} numbers, the reference's {}",
+                mine.numbers.len(),
+                line.numbers.len()
+            ));
+        }
+        for (i, (&x, &y)) in mine.numbers.iter().zip(&line.numbers).enumerate() {
+            let name = if line.numbers.len() == 1 {
+                base.clone()
+            } else {
+                format!("{base} [{}]", i + 1)
+            };
+            measures.push(Measure::new(name.clone(), x, Kind::Printed));
+            // An error the script measured itself is shown as it is: its difference from the
+            // reference's own error means nothing.
+            if is_error_label(&name) {
+                continue;
+            }
+            let abs = (x - y).abs();
+            let rel = if abs == 0.0 { 0.0 } else { abs / y.abs() };
+            measures.push(Measure::new(format!("{name} abs"), abs, Kind::Error));
+            measures.push(Measure::new(format!("{name} rel"), rel, Kind::Error));
+        }
+    }
+    Ok(measures)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn value(measures: &[Measure], name: &str) -> f64 {
+        measures
+            .iter()
+            .find(|m| m.name == name)
+            .unwrap_or_else(|| panic!("no {name} in {measures:?}"))
+            .value
+    }
+
+    #[test]
+    fn printed_lines_are_matched_by_label_and_occurrence() {
+        let reference = "integral 2.0\nsteps 64\nintegral 4.0\n(1, 2, 3)\n";
+        let run = "steps 8\nintegral 2.5\nintegral 3.0\n(1, 2, 4)\n";
+        let m = compare_printed(run, reference).unwrap();
+        assert_eq!(value(&m, "integral"), 2.5);
+        assert_eq!(value(&m, "integral abs"), 0.5);
+        assert_eq!(value(&m, "integral rel"), 0.25);
+        assert_eq!(value(&m, "integral (2) abs"), 1.0);
+        assert_eq!(value(&m, "steps abs"), 56.0);
+        assert_eq!(value(&m, "line 4 [3] rel"), 1.0 / 3.0);
+        assert_eq!(value(&m, "line 4 [1] abs"), 0.0);
+        assert!(
+            m.iter()
+                .find(|x| x.name == "integral")
+                .is_some_and(|x| x.kind == Kind::Printed && !x.plotted())
+        );
+        let err = compare_printed("steps 8\n", reference).unwrap_err();
+        assert!(err.contains("did not print `integral`"), "{err}");
+    }
+
+    #[test]
+    fn a_printed_error_is_plotted_as_it_is() {
+        let m = compare_printed("area error 0.01\n", "area error 0.001\n").unwrap();
+        assert_eq!(m.len(), 1);
+        assert!(m[0].plotted() && m[0].kind == Kind::Printed && m[0].value == 0.01);
+    }
+
+    #[test]
+    fn image_errors_follow_their_definitions() {
+        let dir = tempfile::tempdir().unwrap();
+        let write = |name: &str, level: f32| {
+            let image = crate::render::Image {
+                width: 16,
+                height: 12,
+                rgba: vec![[level, level, level, 1.0]; 16 * 12],
+                aovs: Vec::new(),
+            };
+            crate::render::write_image(&dir.path().join(name), &image).unwrap();
+        };
+        write("a.exr", 0.5);
+        write("b.exr", 0.25);
+        let m = compare_images("i", &dir.path().join("a.exr"), &dir.path().join("b.exr")).unwrap();
+        // Three of four channels differ by 0.25.
+        let mse = 3.0 * 0.0625 / 4.0;
+        assert!((value(&m, "i rmse") - f64::sqrt(mse)).abs() < 1e-7);
+        assert!((value(&m, "i psnr") - 10.0 * (1.0 / mse).log10()).abs() < 1e-5);
+        assert!((value(&m, "i relmse") - 3.0 * 0.0625 / (0.0625 + 0.01) / 4.0).abs() < 1e-6);
+        // Flat images: SSIM is its luminance term alone, (2 μx μy + C1) / (μx² + μy² + C1).
+        let (x, y) = (displayed_level(0.5), displayed_level(0.25));
+        let c1 = (0.01f64 * 65535.0).powi(2);
+        let expected = (2.0 * x * y + c1) / (x * x + y * y + c1);
+        assert!((value(&m, "i ssim") - expected).abs() < 1e-9, "{m:?}");
+        let same =
+            compare_images("i", &dir.path().join("a.exr"), &dir.path().join("a.exr")).unwrap();
+        assert_eq!(value(&same, "i rmse"), 0.0);
+        assert_eq!(value(&same, "i ssim"), 1.0);
+        assert!(value(&same, "i psnr").is_infinite());
+    }
+
+    fn displayed_level(linear: f64) -> f64 {
+        (((1.055 * linear.powf(1.0 / 2.4) - 0.055) * 65535.0).round()).max(0.0)
+    }
+
+    #[test]
+    fn different_files_are_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let (a, b) = (dir.path().join("a"), dir.path().join("b"));
+        std::fs::create_dir_all(&a).unwrap();
+        std::fs::create_dir_all(&b).unwrap();
+        std::fs::write(a.join("out_1.txt"), "").unwrap();
+        std::fs::write(b.join("out_2.txt"), "").unwrap();
+        let err = compare(&a, "", &b, "").unwrap_err();
+        assert!(
+            err.contains("did not write out_2.txt") && err.contains("wrote out_1.txt"),
+            "{err}"
+        );
+    }
+}
