@@ -130,11 +130,15 @@ wrote and printed is compared with what its reference wrote and printed:
   printed numbers       each number's value, absolute and relative error; a line's label is
                         its text without the numbers (print(\"area error\", e) is \"area error\")
 
+A printed line whose label contains \"error\" or \"seconds\" (or \"time\") is a quantity the \
+script measured itself, against an exact answer or with clock(): it is shown as it is, not \
+compared with the reference's.
+
 The study prints a table and writes, into --out: study.csv (one row per setting), \
-pareto-MEASURE.svg (each error against seconds on log-log axes, the Pareto front marked) and \
-MEASURE-vs-PARAM.svg (each error against each swept param). Errors plotted are the RMSEs and \
-largest errors, relative errors of printed numbers, and printed numbers whose label contains \
-\"error\" (errors the script measured itself, against an exact answer), shown as they are.
+pareto-MEASURE.svg (each error against seconds on log-log axes, the Pareto front marked), \
+MEASURE-vs-PARAM.svg (each error against each swept param) and seconds-vs-PARAM.svg and \
+peak-mib-vs-PARAM.svg (the costs). Errors plotted are the RMSEs and largest errors, relative \
+errors of printed numbers, and the errors the script printed itself (by their size).
 
 Reference runs are cached in --out/reference, keyed by the text of the script and every file \
 it imports, felt's version and the reference's params: running the study again with more \

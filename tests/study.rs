@@ -351,3 +351,183 @@ fn help_documents_the_command() {
         assert!(help.contains(needle), "{needle}: {help}");
     }
 }
+
+/// The rows of a study's CSV as (header, rows), and one value by setting and column.
+struct Table {
+    header: Vec<String>,
+    rows: Vec<Vec<String>>,
+}
+
+impl Table {
+    fn read(path: &Path) -> Table {
+        let (header, rows) = csv(path);
+        Table { header, rows }
+    }
+
+    /// The value of `measure` in the row whose swept values are `setting`.
+    fn at(&self, setting: &[&str], measure: &str) -> f64 {
+        let column = column(&self.header, measure);
+        let row = self
+            .rows
+            .iter()
+            .find(|r| r.iter().zip(setting).all(|(a, b)| a == b))
+            .unwrap_or_else(|| panic!("no row {setting:?}"));
+        row[column]
+            .parse()
+            .unwrap_or_else(|_| panic!("{measure} of {setting:?}: {:?}", row[column]))
+    }
+}
+
+/// Runs a published study at its tiny size (the README lists the full commands).
+fn tiny_study(args: &[&str]) -> Table {
+    let dir = tempfile::tempdir().unwrap();
+    let examples = std::fs::canonicalize("examples/studies").unwrap();
+    let script = examples.join(args[0]);
+    let mut all: Vec<&str> = vec![script.to_str().unwrap()];
+    all.extend(&args[1..]);
+    all.extend(["--out", "s"]);
+    let out = study(dir.path(), &all);
+    assert_eq!(out.status.code(), Some(0), "{args:?}: {}", text(&out));
+    Table::read(&dir.path().join("s/study.csv"))
+}
+
+#[test]
+fn published_studies_run_at_tiny_size() {
+    // Study 1: gridless is the reference, so its own rows are exact; gridded blurs.
+    let fluids = tiny_study(&[
+        "fluid_methods.felt",
+        "--sweep",
+        "method=gridded,gridless,selma",
+        "--sweep",
+        "frames=1,2",
+        "--reference",
+        "method=gridless",
+        "--set",
+        "res=16",
+        "--set",
+        "warmup=4",
+        "--set",
+        "measure=32",
+        "--set",
+        "width=64",
+        "--set",
+        "step=0.05",
+    ]);
+    assert_eq!(fluids.at(&["gridless", "2"], "density.vdb rmse"), 0.0);
+    assert!(fluids.at(&["gridded", "2"], "density.vdb rmse") > 0.0);
+    // Study 2: a finer step is closer to the reference image.
+    let step = tiny_study(&[
+        "raymarch_step.felt",
+        "--sweep",
+        "scene=cloud,gridless",
+        "--sweep",
+        "step=0.08,0.04",
+        "--reference",
+        "step=0.02",
+        "--set",
+        "width=64",
+        "--set",
+        "height=36",
+    ]);
+    for scene in ["cloud", "gridless"] {
+        let (coarse, fine) = (
+            step.at(&[scene, "0.08"], "image.exr rmse"),
+            step.at(&[scene, "0.04"], "image.exr rmse"),
+        );
+        assert!(coarse > fine && fine > 0.0, "{scene}: {coarse} {fine}");
+    }
+    // Study 3: finer layer caches are closer to the procedural cloud.
+    let cumulo = tiny_study(&[
+        "cumulo_cache.felt",
+        "--sweep",
+        "mode=cached",
+        "--sweep",
+        "res=16,32",
+        "--reference",
+        "mode=procedural",
+        "--reference",
+        "res=32",
+        "--set",
+        "width=32",
+        "--set",
+        "height=18",
+        "--set",
+        "measure=32",
+        "--set",
+        "step=0.08",
+    ]);
+    assert!(
+        cumulo.at(&["cached", "16"], "image.exr rmse")
+            > cumulo.at(&["cached", "32"], "image.exr rmse")
+    );
+    // Study 4: exact normals are exact; cached and differenced ones are not.
+    let normals = tiny_study(&[
+        "normals.felt",
+        "--sweep",
+        "method=exact,interpolant,central,finite",
+        "--set",
+        "res=32",
+        "--set",
+        "fill=48",
+        "--reference",
+        "method=exact",
+    ]);
+    assert!(normals.at(&["exact"], "mean normal error") < 1e-3);
+    for method in ["interpolant", "central", "finite"] {
+        assert!(
+            normals.at(&[method], "mean normal error") > 1e-3,
+            "{method}"
+        );
+    }
+    // Study 5: first-order (semi-Lagrangian) advection of Zalesak's disk is more accurate in
+    // fewer, larger steps, since each step interpolates once.
+    let zalesak = tiny_study(&[
+        "zalesak.felt",
+        "--sweep",
+        "scheme=semilagrangian,bfecc",
+        "--sweep",
+        "steps=10,40",
+        "--set",
+        "res=50",
+        "--set",
+        "sample=200",
+        "--reference",
+        "scheme=selma",
+    ]);
+    assert!(
+        zalesak.at(&["semilagrangian", "10"], "shape error")
+            < zalesak.at(&["semilagrangian", "40"], "shape error")
+    );
+    let vortex = tiny_study(&[
+        "vortex.felt",
+        "--sweep",
+        "scheme=semilagrangian,maccormack",
+        "--sweep",
+        "steps=16,32",
+        "--set",
+        "res=32",
+        "--set",
+        "sample=200",
+        "--reference",
+        "scheme=selma",
+    ]);
+    assert!(vortex.at(&["maccormack", "32"], "shape error") > 0.0);
+    let deformation = tiny_study(&[
+        "deformation.felt",
+        "--sweep",
+        "scheme=semilagrangian,bfecc",
+        "--sweep",
+        "steps=5,10",
+        "--set",
+        "res=24",
+        "--set",
+        "sample=48",
+        "--reference",
+        "scheme=selma",
+    ]);
+    // On a grid this coarse semi-Lagrangian smears the sheet away: the whole sphere,
+    // 4/3 π 0.15³, is lost. BFECC brings part of it back.
+    let sphere = 4.0 / 3.0 * std::f64::consts::PI * 0.15f64.powi(3);
+    assert!((deformation.at(&["semilagrangian", "10"], "volume error") + sphere).abs() < 1e-4);
+    assert!(deformation.at(&["bfecc", "10"], "volume error").abs() < 0.9 * sphere);
+}

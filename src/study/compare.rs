@@ -11,7 +11,9 @@
 //!   grids must share their voxel transform.
 //! - **Printed numbers**: every number on each line of standard output. A line's label is its
 //!   text without the numbers; the k-th line with a label is matched with the reference's k-th
-//!   line with that label, number by number.
+//!   line with that label, number by number. A line whose label says it is an error
+//!   ("area error") or a time ("fill seconds") the script measured itself is shown as it is,
+//!   not compared; errors among them are plotted.
 
 use crate::grid::vdb::{self, VdbGrid};
 use std::collections::HashMap;
@@ -59,6 +61,12 @@ impl Measure {
 /// Whether a printed line's label says it is an error the script measured itself.
 fn is_error_label(label: &str) -> bool {
     label.to_lowercase().contains("error")
+}
+
+/// Whether a printed line's label says it is a time the script measured itself.
+fn is_time_label(label: &str) -> bool {
+    let lower = label.to_lowercase();
+    lower.contains("seconds") || lower.contains("time")
 }
 
 /// Every file under `directory`, as sorted paths relative to it.
@@ -445,9 +453,9 @@ fn compare_printed(run: &str, reference: &str) -> Result<Vec<Measure>, String> {
                 format!("{base} [{}]", i + 1)
             };
             measures.push(Measure::new(name.clone(), x, Kind::Printed));
-            // An error the script measured itself is shown as it is: its difference from the
-            // reference's own error means nothing.
-            if is_error_label(&name) {
+            // An error or a time the script measured itself is shown as it is: its difference
+            // from the reference's own means nothing.
+            if is_error_label(&name) || is_time_label(&name) {
                 continue;
             }
             let abs = (x - y).abs();
@@ -496,6 +504,9 @@ mod tests {
     fn a_printed_error_is_plotted_as_it_is() {
         let m = compare_printed("area error 0.01\n", "area error 0.001\n").unwrap();
         assert_eq!(m.len(), 1);
+        let times = compare_printed("fill seconds 2.5\n", "fill seconds 1.0\n").unwrap();
+        assert_eq!(times.len(), 1);
+        assert!(!times[0].plotted() && times[0].value == 2.5);
         assert!(m[0].plotted() && m[0].kind == Kind::Printed && m[0].value == 0.01);
     }
 

@@ -143,7 +143,7 @@ fn study(args: &StudyArgs) -> Result<u8, Stop> {
     let bar = progress(runs);
     for assignments in distinct {
         let place = reference_folder(&folder, &fingerprint, &assignments);
-        let shown = plan::describe(&assignments);
+        let shown = plan::describe(&plan.without_fixed(&assignments));
         bar.set_message(format!("reference {shown}"));
         let reference = match Reference::load(&place) {
             Some(r) => {
@@ -236,7 +236,7 @@ fn study(args: &StudyArgs) -> Result<u8, Stop> {
         let m = &reference.measured;
         println!(
             "reference {}: {:.3} s, {:.3} CPU s, {:.1} MiB",
-            plan::describe(assignments),
+            plan::describe(&plan.without_fixed(assignments)),
             m.seconds,
             m.cpu_seconds,
             m.peak_bytes as f64 / (1 << 20) as f64

@@ -56,6 +56,16 @@ impl Plan {
         all
     }
 
+    /// `assignments` less the `--set` values every run shares (unless the reference changed
+    /// them): what tells one reference from another.
+    pub fn without_fixed(&self, assignments: &Assignments) -> Assignments {
+        assignments
+            .iter()
+            .filter(|(n, v)| !self.fixed.iter().any(|(f, fv)| f == n && fv == v))
+            .cloned()
+            .collect()
+    }
+
     /// "n=4, method=bfecc": a setting as the table and messages show it.
     pub fn describe(&self, setting: &Setting) -> String {
         describe(

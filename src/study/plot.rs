@@ -12,13 +12,17 @@ use plotters::prelude::*;
 use std::path::{Path, PathBuf};
 
 const SIZE: (u32, u32) = (760, 500);
-const PALETTE: [RGBColor; 6] = [
+const PALETTE: [RGBColor; 10] = [
     RGBColor(31, 119, 180),
     RGBColor(214, 39, 40),
     RGBColor(44, 160, 44),
     RGBColor(148, 103, 189),
     RGBColor(255, 127, 14),
     RGBColor(23, 190, 207),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(127, 127, 127),
+    RGBColor(188, 189, 34),
 ];
 
 /// Draws every plot of the study into `folder`; returns the files written.
@@ -31,6 +35,7 @@ pub fn all(folder: &Path, plan: &Plan, rows: &[Row]) -> Result<Vec<PathBuf>, Str
             rows.iter()
                 .any(|r| measure(r, n).is_some_and(|m| m.plotted()))
         })
+        .filter(|n| !constant(rows, n))
         .collect();
     for name in &names {
         let path = folder.join(format!("pareto-{}.svg", slug(name)));
@@ -39,7 +44,25 @@ pub fn all(folder: &Path, plan: &Plan, rows: &[Row]) -> Result<Vec<PathBuf>, Str
         }
         for (index, sweep) in plan.sweeps.iter().enumerate() {
             let path = folder.join(format!("{}-vs-{}.svg", slug(name), slug(&sweep.name)));
-            if against(&path, plan, rows, name, index)? {
+            if against(&path, plan, rows, name, index, &|r| error_of(r, name))? {
+                written.push(path);
+            }
+        }
+    }
+    // What each setting costs, against each param: the chapter's time and memory figures.
+    let costs: [(&str, &RowValue<'_>); 2] = [
+        ("seconds", &|r| seconds(r).filter(|t| *t > 0.0)),
+        ("peak MiB", &|r| match &r.outcome {
+            Outcome::Compared { timing, .. } if timing.peak_bytes > 0 => {
+                Some(timing.peak_bytes as f64 / (1 << 20) as f64)
+            }
+            _ => None,
+        }),
+    ];
+    for (label, value) in costs {
+        for (index, sweep) in plan.sweeps.iter().enumerate() {
+            let path = folder.join(format!("{}-vs-{}.svg", slug(label), slug(&sweep.name)));
+            if against(&path, plan, rows, label, index, value)? {
                 written.push(path);
             }
         }
@@ -52,6 +75,24 @@ fn measure<'a>(row: &'a Row, name: &str) -> Option<&'a Measure> {
         Outcome::Compared { measures, .. } => measures.iter().find(|m| m.name == name),
         _ => None,
     }
+}
+
+/// Whether every setting has the same value of `name` (a floor the script prints, say): such
+/// a measure is in the table but says nothing as a plot.
+fn constant(rows: &[Row], name: &str) -> bool {
+    let mut values = rows
+        .iter()
+        .filter_map(|r| measure(r, name))
+        .map(|m| m.value);
+    let first = values.next();
+    first.is_none_or(|f| values.all(|v| v == f))
+}
+
+/// The size of a row's error `name`, where it has one a log axis can show: a signed error the
+/// script printed is drawn by its magnitude.
+fn error_of(row: &Row, name: &str) -> Option<f64> {
+    let e = measure(row, name)?.value.abs();
+    (e > 0.0 && e.is_finite()).then_some(e)
 }
 
 fn seconds(row: &Row) -> Option<f64> {
@@ -120,25 +161,25 @@ fn pareto(path: &Path, plan: &Plan, rows: &[Row], name: &str) -> Result<bool, St
     let mut labels = Vec::new();
     let mut points = Vec::new();
     for row in rows {
-        if let (Some(t), Some(m)) = (seconds(row), measure(row, name))
+        if let (Some(t), Some(e)) = (seconds(row), error_of(row, name))
             && t > 0.0
-            && m.value > 0.0
-            && m.value.is_finite()
         {
             labels.push(plan.describe(&row.setting));
-            points.push((t.log10(), m.value.log10()));
+            points.push((t.log10(), e.log10()));
         }
     }
     if points.is_empty() {
         return Ok(false);
     }
     let front = pareto_front(&points);
+    let legend_points = points.clone();
     let root = SVGBackend::new(path, SIZE).into_drawing_area();
     let fail = |e: &dyn std::fmt::Display| e.to_string();
     root.fill(&WHITE).map_err(|e| fail(&e))?;
     let mut chart = ChartBuilder::on(&root)
         .caption(format!("{name} against time"), ("sans-serif", 20))
         .margin(16)
+        .margin_right(48)
         .x_label_area_size(44)
         .y_label_area_size(72)
         .build_cartesian_2d(
@@ -178,7 +219,7 @@ fn pareto(path: &Path, plan: &Plan, rows: &[Row], name: &str) -> Result<bool, St
         .map_err(|e| fail(&e))?;
     chart
         .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
+        .position(emptiest_corner(&legend_points))
         .background_style(WHITE.mix(0.85))
         .border_style(BLACK)
         .draw()
@@ -187,17 +228,25 @@ fn pareto(path: &Path, plan: &Plan, rows: &[Row], name: &str) -> Result<bool, St
     Ok(true)
 }
 
-/// `name` against sweep `index`, one line per combination of the other sweeps' values.
+/// One number of a row, where it has one.
+type RowValue<'a> = dyn Fn(&Row) -> Option<f64> + 'a;
+
+/// `value` (called `name`) against sweep `index`, one line per combination of the other
+/// sweeps' values.
 fn against(
     path: &Path,
     plan: &Plan,
     rows: &[Row],
     name: &str,
     index: usize,
+    value: &RowValue<'_>,
 ) -> Result<bool, String> {
     let sweep = &plan.sweeps[index];
+    if sweep.values.len() < 2 {
+        return Ok(false);
+    }
     let numbers: Option<Vec<f64>> = sweep.values.iter().map(|v| v.trim().parse().ok()).collect();
-    // A numeric param spanning a decade or more is drawn on a log axis, as steps and cell
+    // A numeric param spanning a factor of four or more is drawn on a log axis, as steps and cell
     // sizes usually are; other params by their position in the sweep.
     let axis = match &numbers {
         Some(n) if n.iter().all(|x| *x > 0.0) => {
@@ -224,12 +273,9 @@ fn against(
     // Series keyed by the other sweeps' values.
     let mut series: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
     for row in rows {
-        let Some(m) = measure(row, name) else {
+        let Some(e) = value(row) else {
             continue;
         };
-        if !(m.value > 0.0 && m.value.is_finite()) {
-            continue;
-        }
         let key = plan
             .sweeps
             .iter()
@@ -239,7 +285,7 @@ fn against(
             .map(|(_, (s, v))| format!("{}={v}", s.name))
             .collect::<Vec<_>>()
             .join(", ");
-        let point = (position(&row.setting.values[index]), m.value.log10());
+        let point = (position(&row.setting.values[index]), e.log10());
         match series.iter_mut().find(|(k, _)| *k == key) {
             Some((_, points)) => points.push(point),
             None => series.push((key, vec![point])),
@@ -248,6 +294,7 @@ fn against(
     if series.is_empty() {
         return Ok(false);
     }
+    let legend_points: Vec<(f64, f64)> = series.iter().flat_map(|(_, p)| p.clone()).collect();
     let root = SVGBackend::new(path, SIZE).into_drawing_area();
     let fail = |e: &dyn std::fmt::Display| e.to_string();
     root.fill(&WHITE).map_err(|e| fail(&e))?;
@@ -259,6 +306,7 @@ fn against(
     let mut chart = ChartBuilder::on(&root)
         .caption(format!("{name} against {}", sweep.name), ("sans-serif", 20))
         .margin(16)
+        .margin_right(48)
         .x_label_area_size(44)
         .y_label_area_size(72)
         .build_cartesian_2d(x_range, range(all().map(|p| p.1)))
@@ -313,13 +361,40 @@ fn against(
     }
     chart
         .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
+        .position(emptiest_corner(&legend_points))
         .background_style(WHITE.mix(0.85))
         .border_style(BLACK)
         .draw()
         .map_err(|e| fail(&e))?;
     root.present().map_err(|e| fail(&e))?;
     Ok(true)
+}
+
+/// The corner of the plot with the fewest points near it, for the legend.
+fn emptiest_corner(points: &[(f64, f64)]) -> SeriesLabelPosition {
+    let x = range(points.iter().map(|p| p.0));
+    let y = range(points.iter().map(|p| p.1));
+    let near = |right: bool, top: bool| {
+        points
+            .iter()
+            .filter(|p| {
+                let u = (p.0 - x.start) / (x.end - x.start);
+                let v = (p.1 - y.start) / (y.end - y.start);
+                (if right { u > 0.55 } else { u < 0.45 }) && (if top { v > 0.6 } else { v < 0.4 })
+            })
+            .count()
+    };
+    let corners = [
+        (near(true, true), SeriesLabelPosition::UpperRight),
+        (near(false, true), SeriesLabelPosition::UpperLeft),
+        (near(true, false), SeriesLabelPosition::LowerRight),
+        (near(false, false), SeriesLabelPosition::LowerLeft),
+    ];
+    corners
+        .into_iter()
+        .min_by_key(|(count, _)| *count)
+        .map(|(_, corner)| corner)
+        .unwrap_or(SeriesLabelPosition::UpperRight)
 }
 
 #[derive(Clone, Copy, PartialEq)]
