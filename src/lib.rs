@@ -11,6 +11,7 @@
 // zipped slices would hide that and vectorise no better.
 #![allow(clippy::needless_range_loop)]
 
+pub mod budget;
 pub mod check;
 pub mod diagnostic;
 pub mod doc;

@@ -3,7 +3,8 @@
 //! The one key decision: the whole run happens on a thread with a large stack, because scripts
 //! may build field graphs thousands of nodes deep (long `advect` chains) and the checker,
 //! interpreter and graph passes are allowed to recurse over the syntax tree. Exit codes: 0 on
-//! success, 1 on a script error, 2 on bad usage (arguments, unreadable files, unknown `--set`).
+//! success, 1 on a script error, 2 on bad usage (arguments, unreadable files, unknown `--set`),
+//! 70 on an internal error (a panic: a bug in felt, reported in one line).
 
 use clap::{Parser, Subcommand};
 use felt::diagnostic::{self, Diagnostic};
@@ -11,6 +12,9 @@ use felt::session::Session;
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
+
+/// The exit status of a run that hit a bug in felt (`EX_SOFTWARE` of sysexits.h).
+const INTERNAL_ERROR: u8 = 70;
 
 /// Stack of the thread that runs scripts.
 const RUN_STACK_BYTES: usize = 512 << 20;
@@ -49,7 +53,8 @@ enum Command {
         /// After the run, print each grid that was computed and the grids never needed.
         #[arg(long)]
         profile: bool,
-        /// Largest single grid, in megabytes (default: a quarter of physical memory).
+        /// The run's memory budget in megabytes: caches, FFT buffers, images and large
+        /// strings and arrays all count (default: half of the memory felt may use).
         #[arg(long, value_name = "MB", value_parser = clap::value_parser!(u64).range(1..))]
         memory_limit: Option<u64>,
         /// Write outputs named by relative paths under DIR (created if missing) instead of
@@ -88,7 +93,7 @@ enum Command {
             value_parser = clap::value_parser!(u16).range(1..=MAX_THREADS as i64)
         )]
         threads: Option<u16>,
-        /// The memory limit of each run, in megabytes, as for `felt run`.
+        /// The memory budget of each run, in megabytes, as for `felt run`.
         #[arg(long, value_name = "MB", value_parser = clap::value_parser!(u64).range(1..))]
         memory_limit: Option<u64>,
     },
@@ -169,16 +174,19 @@ fn main() -> ExitCode {
             return ExitCode::from(if e.use_stderr() { 2 } else { 0 });
         }
     };
+    // A panic is a bug in felt, never the user's fault: one line saying so, then exit 70.
+    std::panic::set_hook(Box::new(|info| {
+        eprintln!(
+            "felt: internal error ({info}); please report it, with the script that caused it"
+        );
+    }));
     let runner = std::thread::Builder::new()
         .name("felt".into())
         .stack_size(RUN_STACK_BYTES)
         .spawn(move || run(cli));
     match runner.map(|handle| handle.join()) {
         Ok(Ok(code)) => code,
-        Ok(Err(_)) => {
-            eprintln!("felt: internal error (the message above); please report it with the script");
-            ExitCode::from(101)
-        }
+        Ok(Err(_)) => ExitCode::from(INTERNAL_ERROR),
         Err(e) => {
             eprintln!("felt: cannot start: {e}");
             ExitCode::from(2)
@@ -217,6 +225,12 @@ fn run(cli: Cli) -> ExitCode {
             if let Err(code) = set_threads(threads) {
                 return code;
             }
+            // Ctrl-C or SIGTERM in a batch run: no half-written temporary is left behind.
+            let _ = ctrlc::set_handler(|| {
+                felt::output::remove_temporaries();
+                eprintln!("felt: interrupted");
+                std::process::exit(130);
+            });
             if let Some(dir) = output_dir
                 && let Err(e) = felt::output::set_directory(&dir)
             {

@@ -15,10 +15,28 @@
 
 use std::fs::File;
 use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
+use std::sync::{Mutex, OnceLock};
 
 /// The folder relative outputs go to, when `--output-dir` set one.
 static DIRECTORY: OnceLock<PathBuf> = OnceLock::new();
+
+/// Temporary files being written now, so an interrupted run can remove them.
+static IN_PROGRESS: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+/// Removes every temporary file being written now (from a Ctrl-C or SIGTERM handler, just
+/// before the process exits). A temporary left by a run killed outright (SIGKILL) is never
+/// read: its name is unique and ignored by everything felt lists.
+pub fn remove_temporaries() {
+    let paths = IN_PROGRESS.lock().unwrap_or_else(|e| e.into_inner());
+    for path in paths.iter() {
+        let _ = std::fs::remove_file(path);
+    }
+}
+
+/// Whether `name` is one of felt's temporary files.
+pub fn is_temporary(name: &str) -> bool {
+    name.starts_with(".felt-") && name.ends_with(".tmp")
+}
 
 /// Symbolic links followed before giving up, as the kernel's own limit.
 const MAX_LINKS: usize = 40;
@@ -51,6 +69,24 @@ pub fn source(path: &Path) -> PathBuf {
         written
     } else {
         path.to_path_buf()
+    }
+}
+
+/// Checks, before the work that produces it, that a file can be written at `path`: its folder
+/// exists (or will be made under the output folder). A render can take minutes; a typo in
+/// its folder should not cost them.
+pub fn check_writable(path: &Path) -> Result<(), String> {
+    if DIRECTORY.get().is_some() && path.is_relative() {
+        return Ok(());
+    }
+    let folder = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => return Ok(()),
+    };
+    match std::fs::metadata(folder) {
+        Ok(meta) if meta.is_dir() => Ok(()),
+        Ok(_) => Err(format!("'{}' is not a folder", folder.display())),
+        Err(_) => Err(format!("the folder '{}' does not exist", folder.display())),
     }
 }
 
@@ -99,12 +135,24 @@ pub fn write_atomically(
         builder.permissions(std::fs::Permissions::from_mode(0o666));
     }
     let mut temporary = builder.tempfile_in(directory).map_err(|e| e.to_string())?;
-    write(temporary.as_file_mut())?;
-    temporary.as_file().sync_all().map_err(|e| e.to_string())?;
-    temporary
-        .persist(&landing)
-        .map_err(|e| e.error.to_string())?;
-    Ok(())
+    let name = temporary.path().to_path_buf();
+    IN_PROGRESS
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .push(name.clone());
+    let written = write(temporary.as_file_mut())
+        .and_then(|()| temporary.as_file().sync_all().map_err(|e| e.to_string()))
+        .and_then(|()| {
+            temporary
+                .persist(&landing)
+                .map(|_| ())
+                .map_err(|e| e.error.to_string())
+        });
+    IN_PROGRESS
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .retain(|p| *p != name);
+    written
 }
 
 #[cfg(test)]

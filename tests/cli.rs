@@ -339,3 +339,158 @@ fn repl_in_a_real_terminal() {
     tmux(&["kill-session", "-t", &session]);
     assert!(pane.contains("felt>"));
 }
+
+/// Runs `source` as a script under `--memory-limit MB`, within a minute.
+fn run_under_budget(source: &str, megabytes: u32) -> (Option<i32>, String) {
+    let dir = tempfile::tempdir().unwrap();
+    let script = dir.path().join("budget.felt");
+    std::fs::write(&script, source).unwrap();
+    let out = felt_within(
+        &[
+            "run",
+            script.to_str().unwrap(),
+            "--memory-limit",
+            &megabytes.to_string(),
+        ],
+        Duration::from_secs(60),
+    );
+    // The renderer wraps long messages: hand back the words, one space apart.
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let words: Vec<&str> = stderr.split_whitespace().filter(|w| *w != "│").collect();
+    (out.status.code(), words.join(" "))
+}
+
+#[test]
+fn the_memory_budget_covers_the_whole_run() {
+    // Each cache of 100³ cells takes 3.8 MiB once written: two fit a 10 MiB budget, the
+    // third does not, and the message is at the third's line.
+    let (code, stderr) = run_under_budget(
+        "domain d((0, 0, 0), (1, 1, 1), (0, 0, 0), 0.01);\n\
+         scalarcache a(d);\nscalarcache b(d);\nscalarcache c(d);\n\
+         cachewrite(a, scalarfield(1));\ncachewrite(b, scalarfield(2));\n\
+         cachewrite(c, scalarfield(3));\n",
+        10,
+    );
+    assert_eq!(code, Some(1), "{stderr}");
+    assert!(
+        stderr.contains("budget.felt:7:") && stderr.contains("over the memory budget of 10.0 MiB"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("7.6 MiB of it already held"), "{stderr}");
+    // A cache no value refers to any more gives its memory back.
+    let (code, stderr) = run_under_budget(
+        "domain d((0, 0, 0), (1, 1, 1), (0, 0, 0), 0.01);\n\
+         for (int i = 0; i < 6; i++) { scalarcache c(d); cachewrite(c, scalarfield(i)); }\n",
+        10,
+    );
+    assert_eq!(code, Some(0), "{stderr}");
+    // A string doubled 40 times, an image too large for memory: refused before allocating.
+    let (code, stderr) = run_under_budget(
+        "string s = \"ab\";\nfor (int i = 0; i < 40; i++) { s = s + s; }\n",
+        64,
+    );
+    assert_eq!(code, Some(1), "{stderr}");
+    assert!(
+        stderr.contains("budget.felt:2:") && stderr.contains("a string of"),
+        "{stderr}"
+    );
+    let started = Instant::now();
+    let (code, stderr) = run_under_budget(
+        "camera cam = camera((0, 0, 3), (0, 0, 0), (0, 1, 0), 40);\n\
+         render(\"big.exr\", density = scalarfield(1), camera = cam, width = 20000,\n\
+                height = 20000, bounds = domain((-1, -1, -1), (2, 2, 2), (0, 0, 0)));\n",
+        1024,
+    );
+    assert_eq!(code, Some(1), "{stderr}");
+    assert!(stderr.contains("a 20000 x 20000 image"), "{stderr}");
+    assert!(
+        started.elapsed() < Duration::from_secs(20),
+        "refused before rendering"
+    );
+    // gaussiannoise's FFT buffers are counted before the transform.
+    let (code, stderr) = run_under_budget(
+        "domain d((0, 0, 0), (1, 1, 1), (0, 0, 0), 1.0 / 200);\n\
+         scalarfield n = gaussiannoise(d, 0.05);\nprint(probe(n, (0.5, 0.5, 0.5)));\n",
+        100,
+    );
+    assert_eq!(code, Some(1), "{stderr}");
+    assert!(stderr.contains("over the memory budget"), "{stderr}");
+}
+
+#[cfg(unix)]
+#[test]
+fn an_address_space_limit_lowers_the_default_budget() {
+    // Under `ulimit -v` of 2 GB the default budget is half of it, so a 4 GB grid is a
+    // diagnostic at its line, not an abort when the allocation fails.
+    let dir = tempfile::tempdir().unwrap();
+    let script = dir.path().join("big.felt");
+    std::fs::write(
+        &script,
+        "domain d((0, 0, 0), (1, 1, 1), (0, 0, 0), 0.001);\nscalarcache c(d);\n",
+    )
+    .unwrap();
+    let out = Command::new("sh")
+        .arg("-c")
+        .arg(format!(
+            "ulimit -v 2000000 && exec '{}' run '{}'",
+            env!("CARGO_BIN_EXE_felt"),
+            script.display()
+        ))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("big.felt:1:")
+            && stderr.contains("over the memory budget")
+            && stderr.contains("976.6 MiB"),
+        "{stderr}"
+    );
+}
+
+#[cfg(unix)]
+#[test]
+fn sigterm_during_a_write_leaves_no_temporary() {
+    // A large image takes seconds to encode: wait until its temporary file exists, then stop
+    // felt. The temporary must go with it, and the exit status says it was interrupted.
+    let dir = tempfile::tempdir().unwrap();
+    let script = dir.path().join("big.felt");
+    std::fs::write(
+        &script,
+        "camera cam = camera((0, 0, 3), (0, 0, 0), (0, 1, 0), 40);\n\
+         render(\"big.exr\", density = scalarfield(0), camera = cam, width = 3000, height = 3000,\n\
+                bounds = domain((-1, -1, -1), (2, 2, 2), (0, 0, 0)));\n",
+    )
+    .unwrap();
+    let mut child = felt()
+        .current_dir(dir.path())
+        .args(["run", "big.felt"])
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let temporaries = || -> Vec<String> {
+        std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| n.starts_with(".felt-") && n.ends_with(".tmp"))
+            .collect()
+    };
+    let started = Instant::now();
+    while temporaries().is_empty() {
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "felt finished before its temporary was seen"
+        );
+        assert!(started.elapsed() < Duration::from_secs(120));
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let killed = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(130));
+    assert_eq!(temporaries(), Vec::<String>::new());
+    assert!(!dir.path().join("big.exr").exists());
+}

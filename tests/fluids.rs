@@ -355,7 +355,7 @@ fn a_solve_over_the_memory_limit_is_refused_before_any_work() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{stderr}");
     assert!(
-        stderr.contains("memory limit") && stderr.contains("big.felt:2:"),
+        stderr.contains("memory budget") && stderr.contains("big.felt:2:"),
         "{stderr}"
     );
 }

@@ -128,6 +128,7 @@ fn corpus() -> Vec<PathBuf> {
         "tests/scripts/lang",
         "tests/scripts/lang/lib",
         "tests/scripts/errors",
+        "tests/scripts/heavy",
     ] {
         if let Ok(entries) = std::fs::read_dir(dir) {
             for e in entries.flatten() {
@@ -252,4 +253,47 @@ fn copy_siblings(original: &Path, scratch: &Path) -> std::io::Result<()> {
         }
     }
     Ok(())
+}
+
+/// Each resource-heavy script in `tests/scripts/heavy` stops with a memory-budget diagnostic at
+/// a line of its own (or of the library it calls), in its own process: an abort on a failed
+/// allocation would show as a signal, not an exit status of 1.
+#[test]
+fn heavy_scripts_stop_at_the_memory_budget() {
+    // Absolute: the mutation test beside this one changes the working directory.
+    let heavy = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/scripts/heavy");
+    let mut scripts: Vec<PathBuf> = std::fs::read_dir(heavy)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "felt"))
+        .collect();
+    scripts.sort();
+    assert!(scripts.len() >= 8);
+    let scratch = tempfile::tempdir().unwrap();
+    for script in &scripts {
+        let started = Instant::now();
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_felt"))
+            .current_dir(scratch.path())
+            .arg("run")
+            .arg(script)
+            .args(["--memory-limit", "64"])
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{}: {stderr}", script.display());
+        // The renderer wraps long messages: compare the words.
+        let words: Vec<&str> = stderr.split_whitespace().filter(|w| *w != "│").collect();
+        let flat = words.join(" ");
+        assert!(
+            flat.contains("over the memory budget") && !flat.contains("panicked"),
+            "{}: {stderr}",
+            script.display()
+        );
+        assert!(
+            started.elapsed() < Duration::from_secs(60),
+            "{} took {:?}",
+            script.display(),
+            started.elapsed()
+        );
+    }
 }

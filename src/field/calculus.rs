@@ -27,7 +27,12 @@ pub fn gradients(roots: &[NodeRef]) -> Outcome<Vec<[NodeRef; 3]>> {
     // Kernel nodes: the derivative of each output, per axis.
     let mut kernel_d: HashMap<u64, Vec<[NodeRef; 3]>> = HashMap::new();
     let zero = || node::constant(0.0);
-    for n in &order {
+    for (i, n) in order.iter().enumerate() {
+        // Derivatives of derivatives can grow a graph severalfold per level: stop at the
+        // budget rather than when memory runs out.
+        if i % 1024 == 0 {
+            node::check_graph_memory()?;
+        }
         let grad: [NodeRef; 3] = match &n.op {
             Op::Const(_) => [zero(), zero(), zero()],
             Op::X => [node::constant(1.0), zero(), zero()],

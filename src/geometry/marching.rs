@@ -90,6 +90,15 @@ pub fn marching_cubes(levelset: &dyn FieldSampler, domain: &Domain) -> Outcome<M
     };
     let grid = Lattice::new(domain, resolution);
     let cube_layers = resolution[2] + 1;
+    // Every slab's samples may be alive at once: the padded grid of f32 values.
+    let padded = grid.padded.map(|n| n as f64);
+    let _samples = crate::budget::reserve(
+        padded[0] * padded[1] * padded[2] * 4.0,
+        &format!(
+            "meshing over {} x {} x {} cells (its samples)",
+            resolution[0], resolution[1], resolution[2]
+        ),
+    )?;
     // The slabs depend on the resolution alone, never on the number of threads, so neither
     // does the order of the vertices. Each slab samples one layer that the next samples again;
     // thicker slabs waste less, thinner ones share the work more evenly.
@@ -403,6 +412,16 @@ impl Block {
 /// Joins the slabs' meshes: each slab's own vertices in slab order, and the crossings a slab
 /// shares with the next one resolved to that slab's copy.
 fn merge(slabs: Vec<SlabMesh>) -> Outcome<Mesh> {
+    // The merged mesh is as large again as the slabs' pieces.
+    let (positions, triangles): (usize, usize) = slabs
+        .iter()
+        .map(|s| (s.positions.len(), s.triangles.len()))
+        .fold((0, 0), |(p, t), (a, b)| (p + a, t + b));
+    let bytes = (positions * std::mem::size_of::<DVec3>() + triangles * 12) as f64;
+    crate::budget::check(
+        bytes,
+        &format!("a mesh of {triangles} triangles and {positions} vertices"),
+    )?;
     let mut mesh = Mesh {
         positions: Vec::with_capacity(slabs.iter().map(|s| s.positions.len()).sum()),
         triangles: Vec::with_capacity(slabs.iter().map(|s| s.triangles.len()).sum()),

@@ -129,6 +129,8 @@ pub struct Cache {
     identity: u64,
     label: String,
     profile: Option<Arc<GridStats>>,
+    /// This cache's share of the run's memory budget, given back when it is dropped.
+    _memory: crate::budget::Reservation,
 }
 
 /// A brick of a filled cache, for writers: `size` cells from cell `origin`.
@@ -254,7 +256,7 @@ impl Cache {
                 "a cache background must be finite, got {background:?}"
             )));
         }
-        domain.check_grid_memory(width)?;
+        let memory = domain.reserve_grid_memory(width)?;
         let shape = Shape::new(cells);
         let background_f32: Vec<f32> = background.iter().map(|&b| b as f32).collect();
         let background_brick: Box<[f32]> = (0..BRICK_CELLS * width)
@@ -292,6 +294,7 @@ impl Cache {
             identity: crate::grid::next_identity(),
             label,
             profile: None,
+            _memory: memory,
         })
     }
 

@@ -10,7 +10,6 @@
 use crate::failure::{Failure, Outcome};
 use crate::sample::Aabb;
 use glam::{DMat3, DQuat, DVec3};
-use std::sync::atomic::{AtomicU64, Ordering};
 
 /// An oriented box, optionally with a cell grid.
 #[derive(Clone, Debug, PartialEq)]
@@ -27,38 +26,14 @@ pub struct Domain {
     pub cell: DVec3,
 }
 
-/// Bytes that one grid may occupy, unless changed with `set_memory_limit`.
-static MEMORY_LIMIT: AtomicU64 = AtomicU64::new(0);
-
-/// Sets the largest grid, in bytes, that a domain or cache may describe.
+/// Sets the run's memory budget, in bytes (see `budget`).
 pub fn set_memory_limit(bytes: u64) {
-    MEMORY_LIMIT.store(bytes.max(1), Ordering::Relaxed);
+    crate::budget::set_limit(bytes);
 }
 
-/// The current limit: by default half the machine's physical memory (4 GiB if unknown).
+/// The run's memory budget: no single grid may be larger.
 pub fn memory_limit() -> u64 {
-    match MEMORY_LIMIT.load(Ordering::Relaxed) {
-        0 => physical_memory().map(|m| m / 2).unwrap_or(4 << 30),
-        limit => limit,
-    }
-}
-
-fn physical_memory() -> Option<u64> {
-    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = text.lines().find(|l| l.starts_with("MemTotal:"))?;
-    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kib * 1024)
-}
-
-fn human_bytes(bytes: f64) -> String {
-    const UNITS: [&str; 5] = ["B", "KiB", "MiB", "GiB", "TiB"];
-    let mut value = bytes;
-    let mut unit = 0;
-    while value >= 1024.0 && unit + 1 < UNITS.len() {
-        value /= 1024.0;
-        unit += 1;
-    }
-    format!("{value:.1} {}", UNITS[unit])
+    crate::budget::limit()
 }
 
 impl Domain {
@@ -104,12 +79,12 @@ impl Domain {
         let bytes = cells * 4.0;
         if bytes.is_nan() || bytes > memory_limit() as f64 || cells > (u32::MAX as f64) * 64.0 {
             return Err(Failure::new(format!(
-                "a domain of {} x {} x {} cells needs {} for one scalar grid, over the memory limit of {}",
+                "a domain of {} x {} x {} cells needs {} for one scalar grid, over the memory budget of {}",
                 resolution[0],
                 resolution[1],
                 resolution[2],
-                human_bytes(bytes),
-                human_bytes(memory_limit() as f64)
+                crate::budget::human(bytes),
+                crate::budget::human(memory_limit() as f64)
             ))
             .with_help("use a larger cell size or a smaller domain, or raise the limit with --memory-limit"));
         }
@@ -158,15 +133,29 @@ impl Domain {
         let bytes = self.cell_count() as f64 * width as f64 * 4.0;
         if bytes > memory_limit() as f64 {
             return Err(Failure::new(format!(
-                "a grid of {} cells with {} components needs {}, over the memory limit of {}",
+                "a grid of {} cells with {} components needs {}, over the memory budget of {}",
                 self.cell_count(),
                 width,
-                human_bytes(bytes),
-                human_bytes(memory_limit() as f64)
+                crate::budget::human(bytes),
+                crate::budget::human(memory_limit() as f64)
             ))
             .with_help("use a larger cell size or a smaller domain, or raise the limit with --memory-limit"));
         }
         Ok(())
+    }
+
+    /// Takes the memory of a grid of `width` components per cell from the run's budget.
+    pub fn reserve_grid_memory(&self, width: usize) -> Outcome<crate::budget::Reservation> {
+        let bytes = self.cell_count() as f64 * width as f64 * 4.0;
+        crate::budget::reserve(
+            bytes,
+            &format!(
+                "a grid of {} cells with {} component{}",
+                self.cell_count(),
+                width,
+                if width == 1 { "" } else { "s" }
+            ),
+        )
     }
 
     /// World position of a point given in the domain's local frame (corner at zero).
@@ -279,6 +268,6 @@ mod tests {
         assert!(Domain::new(DVec3::ZERO, DVec3::new(1.0, 0.0, 1.0), DVec3::ZERO).is_err());
         assert!(Domain::with_cells(DVec3::ZERO, DVec3::ONE, DVec3::ZERO, -0.1, 0.1).is_err());
         let huge = Domain::with_cells(DVec3::ZERO, DVec3::splat(1e4), DVec3::ZERO, 1e-3, 1e-3);
-        assert!(huge.unwrap_err().message.contains("memory limit"));
+        assert!(huge.unwrap_err().message.contains("memory budget"));
     }
 }

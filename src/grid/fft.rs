@@ -20,7 +20,7 @@
 //! the Nyquist mode `m = N/2`, whose derivative would not be real.
 
 use crate::failure::{Failure, Outcome};
-use crate::grid::domain::{Domain, memory_limit};
+use crate::grid::domain::Domain;
 use glam::{DMat3, DVec3};
 use rayon::prelude::*;
 use rustfft::num_complex::Complex;
@@ -70,7 +70,7 @@ pub fn gaussian_random_field(
     domain.check_grid_memory(width)?;
     let grid = Grid::new(resolution, domain.cell.to_array())?;
     // The spectra, one scratch copy for a transform pass, and the f32 result.
-    check_working_memory(grid.len, 16 * (width + 1) + 4 * width, "gaussiannoise")?;
+    let _working = check_working_memory(grid.len, 16 * (width + 1) + 4 * width, "gaussiannoise")?;
 
     let amplitude = grid.gaussian_amplitude(correlation);
     let mut spectra: Vec<Vec<Complex64>> = (0..width)
@@ -102,18 +102,17 @@ pub fn gaussian_random_field(
     Ok(samples.concat().into_par_iter().map(|v| v as f32).collect())
 }
 
-pub fn check_working_memory(cells: usize, bytes_per_cell: usize, what: &str) -> Outcome<()> {
-    let bytes = cells as f64 * bytes_per_cell as f64;
-    let limit = memory_limit() as f64;
-    if bytes > limit {
-        return Err(Failure::new(format!(
-            "{what} over {cells} cells needs {:.1} GiB of working memory, over the memory limit of {:.1} GiB",
-            bytes / (1u64 << 30) as f64,
-            limit / (1u64 << 30) as f64
-        ))
-        .with_help("use a larger cell size or a smaller domain, or raise the limit with --memory-limit"));
-    }
-    Ok(())
+/// Takes the working memory of a transform over `cells` cells from the run's budget, before
+/// any of it is allocated; held until the returned reservation is dropped.
+pub fn check_working_memory(
+    cells: usize,
+    bytes_per_cell: usize,
+    what: &str,
+) -> Outcome<crate::budget::Reservation> {
+    crate::budget::reserve(
+        cells as f64 * bytes_per_cell as f64,
+        &format!("{what} over {cells} cells (its working memory)"),
+    )
 }
 
 /// A standard normal number for one (seed, component, cell): two uniforms from a

@@ -78,7 +78,11 @@ impl Interpreter {
             ExprKind::Binary(op, l, r) => {
                 let left = self.eval(l)?;
                 let right = self.eval(r)?;
-                ops::binary(*op, left, right).map_err(|f| self.error(e.span, f))
+                let value = ops::binary(*op, left, right).map_err(|f| self.error(e.span, f))?;
+                if matches!(value, Value::Field(_)) {
+                    crate::field::node::check_graph_memory().map_err(|f| self.error(e.span, f))?;
+                }
+                Ok(value)
             }
             ExprKind::Call { callee, args } => self.call(e.span, callee, args),
             ExprKind::Index(base, index) => {
@@ -230,6 +234,9 @@ impl Interpreter {
         );
         self.call_span = previous;
         let value = result.map_err(|f| self.error(span, f))?;
+        if matches!(value, Value::Field(_)) {
+            crate::field::node::check_graph_memory().map_err(|f| self.error(span, f))?;
+        }
         self.check_graph_size(&value, span);
         Ok(value)
     }

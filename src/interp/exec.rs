@@ -261,6 +261,12 @@ fn store(
                 format!("index {index} is out of range for an array of size {len}"),
             ));
         }
+        // Growing past the capacity doubles it: the new storage must fit the budget.
+        if items.len() == items.capacity() {
+            let bytes = (2 * items.len().max(4) * std::mem::size_of::<Value>()) as f64;
+            crate::budget::check(bytes, &format!("an array of {} elements", items.len() + 1))
+                .map_err(|f| (*span, f))?;
+        }
         items.push(value.convert(&elem_ty));
         return Ok(());
     }

@@ -36,7 +36,11 @@ pub fn binary(op: BinaryOp, l: Value, r: Value) -> Outcome<Value> {
         return field_binary(op, &l.as_field()?, &r.as_field()?).map(Value::Field);
     }
     Ok(match (op, l, r) {
-        (Add, Value::Str(a), Value::Str(b)) => Value::string(&format!("{a}{b}")),
+        (Add, Value::Str(a), Value::Str(b)) => {
+            let bytes = a.len() as f64 + b.len() as f64;
+            crate::budget::check(bytes, &format!("a string of {bytes} bytes"))?;
+            Value::string(&format!("{a}{b}"))
+        }
         (Eq, Value::Str(a), Value::Str(b)) => Value::Bool(a == b),
         (Ne, Value::Str(a), Value::Str(b)) => Value::Bool(a != b),
         (Eq, Value::Bool(a), Value::Bool(b)) => Value::Bool(a == b),

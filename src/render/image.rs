@@ -82,6 +82,12 @@ impl Image {
 
 /// Writes `image` to `path`: OpenEXR for `.exr`, an 8-bit preview for `.png`.
 pub fn write_image(path: &Path, image: &Image) -> Outcome<()> {
+    // The writers lay the channels out again before encoding them.
+    let channels = 4 + image.aovs.len();
+    let _copy = crate::budget::reserve(
+        (image.width * image.height * channels * 4) as f64,
+        &format!("writing a {} x {} image", image.width, image.height),
+    )?;
     image.check()?;
     let extension = path
         .extension()

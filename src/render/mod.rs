@@ -40,7 +40,6 @@ pub use tile::MarchStats;
 pub use transmittance::{TransmissivityMethod, transmissivity};
 
 use crate::failure::{Failure, Outcome};
-use crate::grid::domain::memory_limit;
 use crate::sample::{Aabb, FieldSampler};
 use lighting::Illumination;
 use march::{Frame, Worker, tile_side};
@@ -113,17 +112,18 @@ pub fn render_with_stats(
     }
     let aov_names = aov_names(settings, scene.lights.len());
     let pixels = settings.width as f64 * settings.height as f64;
+    // The tiles and the image they are gathered into, from the budget before any ray is
+    // marched: a framebuffer too large for memory fails here, not after the render.
     let bytes = pixels * (16.0 + 4.0 * aov_names.len() as f64);
-    if bytes > memory_limit() as f64 {
-        return Err(Failure::new(format!(
-            "a {} x {} image with {} channels needs {:.1} GiB, over the memory limit",
+    let _framebuffer = crate::budget::reserve(
+        2.0 * bytes,
+        &format!(
+            "a {} x {} image with {} channels (its tiles and the image)",
             settings.width,
             settings.height,
-            4 + aov_names.len(),
-            bytes / (1u64 << 30) as f64
-        ))
-        .with_help("render a smaller image or fewer AOVs"));
-    }
+            4 + aov_names.len()
+        ),
+    )?;
 
     let started = Instant::now();
     let illumination = Illumination::new(scene.density, &scene.lights, settings, bounds, step)?;

@@ -86,6 +86,7 @@ pub fn files_under(directory: &Path) -> std::io::Result<Vec<PathBuf>> {
             if kind.is_dir() {
                 pending.push(path);
             } else if kind.is_file()
+                && !crate::output::is_temporary(&entry.file_name().to_string_lossy())
                 && let Ok(relative) = path.strip_prefix(directory)
             {
                 found.push(relative.to_path_buf());

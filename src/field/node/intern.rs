@@ -8,7 +8,7 @@
 use super::{Node, NodeRef, Op};
 use std::collections::HashMap;
 use std::hash::{Hash, Hasher};
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, LazyLock, Mutex, Weak};
 
 /// The identity of an operation on identified children.
@@ -66,6 +66,15 @@ static TABLE: LazyLock<Mutex<Table>> = LazyLock::new(|| {
     })
 });
 static NEXT_ID: AtomicU64 = AtomicU64::new(1);
+/// `TABLE`'s length, readable without its lock (for the memory budget's frequent checks).
+static LENGTH: AtomicUsize = AtomicUsize::new(0);
+
+/// What one node costs in memory with its table entry: the node, its `Arc` counts, the key
+/// and the map's own slot.
+const NODE_BYTES: usize = std::mem::size_of::<Node>()
+    + std::mem::size_of::<Key>()
+    + 2 * std::mem::size_of::<usize>()
+    + 32;
 
 /// The unique node for `op`, made if it does not exist yet. No simplification.
 pub(super) fn intern(op: Op) -> NodeRef {
@@ -85,7 +94,26 @@ pub(super) fn intern(op: Op) -> NodeRef {
         table.nodes.retain(|_, w| w.strong_count() > 0);
         table.sweep_at = (table.nodes.len() * 2).max(1 << 16);
     }
+    LENGTH.store(table.nodes.len(), Ordering::Relaxed);
     node
+}
+
+/// Checks that the field graphs built so far fit in what is left of the memory budget. Cheap
+/// (one atomic read) unless they seem not to, when dead entries are swept out first.
+pub fn check_graph_memory() -> crate::failure::Outcome<()> {
+    let bytes = |count: usize| (count * NODE_BYTES) as f64;
+    let fits =
+        |count: usize| bytes(count) + crate::budget::used() as f64 <= crate::budget::limit() as f64;
+    if fits(LENGTH.load(Ordering::Relaxed)) {
+        return Ok(());
+    }
+    let live = {
+        let mut table = TABLE.lock().unwrap_or_else(|e| e.into_inner());
+        table.nodes.retain(|_, w| w.strong_count() > 0);
+        LENGTH.store(table.nodes.len(), Ordering::Relaxed);
+        table.nodes.len()
+    };
+    crate::budget::check(bytes(live), &format!("field graphs of {live} nodes"))
 }
 
 /// Entries in the hash-consing table: every live node, plus dead ones not yet swept. A cheap

@@ -267,7 +267,7 @@ fn bad_layouts_are_failures() {
     let big = domain(DVec3::ZERO, DVec3::splat(side), DVec3::ZERO, 1.0);
     let matrix = FnField::new(9, |_p: DVec3, out: &mut [f64]| out.fill(0.0));
     let error = Cache::from_field(big, 9, Arc::new(matrix), vec![0.0; 9], "x".into()).unwrap_err();
-    assert!(error.message.contains("memory limit"));
+    assert!(error.message.contains("memory budget"));
 }
 
 #[test]

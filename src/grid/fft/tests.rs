@@ -313,8 +313,8 @@ fn bad_requests_are_failures() {
     let mut huge = d.clone();
     huge.resolution = Some([1 << 14, 1 << 14, 1 << 14]);
     let e = gaussian_random_field(&huge, 0.1, 0, true).unwrap_err();
-    assert!(e.message.contains("memory limit"), "{}", e.message);
-    let side = ((memory_limit() as f64 / 4.0 / 2.0).cbrt()) as usize;
+    assert!(e.message.contains("memory budget"), "{}", e.message);
+    let side = ((crate::grid::domain::memory_limit() as f64 / 4.0 / 2.0).cbrt()) as usize;
     let mut large = d.clone();
     large.resolution = Some([side, side, side]);
     assert!(large.check_grid_memory(1).is_ok());

@@ -297,6 +297,10 @@ fn run_render(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
     };
     let label = format!("render at {}", interp.location(interp.call_span));
     let started = std::time::Instant::now();
+    crate::output::check_writable(Path::new(&path)).map_err(|e| {
+        Failure::new(format!("cannot write image '{path}': {e}"))
+            .with_help("create the folder first, or write somewhere else")
+    })?;
     let image = render::render(&scene, &settings)?;
     render::write_image(Path::new(&path), &image)?;
     let stats = crate::grid::profile::register("render", &label);
