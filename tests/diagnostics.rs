@@ -104,3 +104,19 @@ fn runtime_errors_show_the_call_stack() {
         outcome.rendered
     );
 }
+
+/// Editors on Windows may start a file with a byte-order mark; it is not part of the script.
+#[test]
+fn a_byte_order_mark_at_the_start_of_a_script_is_skipped() {
+    let outcome = common::run_source("marked.felt", "\u{feff}print(1 + 1);\nprint(2);\n");
+    assert!(outcome.ok, "{}", outcome.rendered);
+    assert_eq!(outcome.output, "2\n2\n");
+    // Positions are still those of the file as read: columns count bytes, the mark's three
+    // included.
+    let outcome = common::run_source("marked.felt", "\u{feff}print(nothing);\n");
+    assert!(
+        outcome.rendered.contains("marked.felt:1:10]"),
+        "{}",
+        outcome.rendered
+    );
+}

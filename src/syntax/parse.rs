@@ -101,6 +101,7 @@ pub fn parse(file: FileId, source: &str) -> Result<Program, Vec<SyntaxError>> {
 pub fn is_incomplete(source: &str) -> bool {
     use logos::Logos;
     let mut open: Vec<Token<'_>> = Vec::new();
+    let source = &source[super::lexer::byte_order_mark_len(source)..];
     for token in Token::lexer(source) {
         match token {
             Ok(t) if t.is_opening_bracket() => open.push(t),
