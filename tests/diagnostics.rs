@@ -105,6 +105,30 @@ fn runtime_errors_show_the_call_stack() {
     );
 }
 
+/// The same keyword twice is named as such, at the second one, even for a builtin with
+/// several forms (it used to be "no form of `render` takes ...").
+#[test]
+fn a_keyword_argument_given_twice_is_pointed_at() {
+    let outcome = common::run_source(
+        "twice.felt",
+        "scalarfield d = identity().x;\nrender(\"a.exr\", density = d, density = d);\n",
+    );
+    assert!(!outcome.ok);
+    assert_eq!(outcome.diagnostics.len(), 1, "{}", outcome.rendered);
+    assert!(
+        outcome
+            .rendered
+            .contains("argument `density` of `render` is given twice"),
+        "{}",
+        outcome.rendered
+    );
+    assert!(
+        outcome.rendered.contains("twice.felt:2:30]"),
+        "{}",
+        outcome.rendered
+    );
+}
+
 /// Editors on Windows may start a file with a byte-order mark; it is not part of the script.
 #[test]
 fn a_byte_order_mark_at_the_start_of_a_script_is_skipped() {
