@@ -5,7 +5,9 @@
 
 mod common;
 
+use felt::diagnostic::MAX_RENDERED;
 use std::path::Path;
+use std::time::{Duration, Instant};
 
 /// (script, line, column of the primary span, a phrase the message must contain)
 const CASES: &[(&str, usize, usize, &str)] = &[
@@ -103,6 +105,46 @@ fn runtime_errors_show_the_call_stack() {
         "{}",
         outcome.rendered
     );
+}
+
+/// A script with thousands of errors: every one is found, the first hundred are shown and the
+/// rest counted in one line, and only those hundred get a did-you-mean (each lookup compares
+/// the name with every variable in scope; one per error made checking quadratic, and 16,000
+/// unknown names took a minute, most of it spent rendering all of them).
+#[test]
+fn thousands_of_errors_are_checked_quickly_and_the_first_hundred_shown() {
+    let n = 20_000;
+    let script: String = (0..n)
+        .map(|i| format!("float value{i} = 1;\nprint(valeu{i});\n"))
+        .collect();
+    let started = Instant::now();
+    let outcome = common::run_source("many_errors.felt", &script);
+    let elapsed = started.elapsed();
+    assert!(!outcome.ok);
+    assert_eq!(outcome.diagnostics.len(), n);
+    let hinted: Vec<usize> = outcome
+        .diagnostics
+        .iter()
+        .enumerate()
+        .filter(|(_, d)| d.help.is_some())
+        .map(|(i, _)| i)
+        .collect();
+    assert_eq!(hinted, (0..MAX_RENDERED).collect::<Vec<_>>());
+    assert_eq!(
+        outcome.diagnostics[7].help.as_deref(),
+        Some("did you mean `value7`?")
+    );
+    let shown = outcome.rendered.matches("unknown variable").count();
+    assert_eq!(shown, MAX_RENDERED);
+    assert!(
+        outcome
+            .rendered
+            .ends_with(&format!("… and {} more errors\n", n - MAX_RENDERED)),
+        "{}",
+        &outcome.rendered[outcome.rendered.len() - 200..]
+    );
+    // Far more than it takes (about a tenth of a second); quadratic work took minutes.
+    assert!(elapsed < Duration::from_secs(10), "took {elapsed:?}");
 }
 
 /// The same keyword twice is named as such, at the second one, even for a builtin with

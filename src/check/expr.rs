@@ -237,10 +237,14 @@ impl Checker<'_> {
         for a in args {
             self.expr(&a.value);
         }
-        let mut names: Vec<String> = self.env.funcs.keys().cloned().collect();
-        names.extend(registry::registry().names().map(String::from));
-        let help = suggest::closest(&callee.name, names.iter().map(|s| s.as_str()))
-            .map(|s| format!("did you mean `{s}`?"));
+        let help = if self.take_hint() {
+            let mut names: Vec<String> = self.env.funcs.keys().cloned().collect();
+            names.extend(registry::registry().names().map(String::from));
+            suggest::closest(&callee.name, names.iter().map(|s| s.as_str()))
+                .map(|s| format!("did you mean `{s}`?"))
+        } else {
+            None
+        };
         let is_var = self.lookup(&callee.name).is_some();
         let d = self.error(
             Stage::Name,

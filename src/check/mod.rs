@@ -11,7 +11,7 @@
 mod expr;
 pub mod types;
 
-use crate::diagnostic::{Diagnostic, Stage};
+use crate::diagnostic::{Diagnostic, MAX_RENDERED, Stage};
 use crate::interp::registry;
 use crate::interp::suggest;
 use crate::syntax::ast::*;
@@ -119,6 +119,7 @@ pub fn check_program(env: &mut CheckEnv, program: &Program) -> Vec<Diagnostic> {
         diags: Vec::new(),
         function: None,
         loop_depth: 0,
+        hints_left: MAX_RENDERED,
     };
     for item in &program.items {
         match item {
@@ -138,6 +139,7 @@ pub fn type_of_expr(env: &mut CheckEnv, e: &Expr) -> Result<Type, Vec<Diagnostic
         diags: Vec::new(),
         function: None,
         loop_depth: 0,
+        hints_left: MAX_RENDERED,
     };
     let ty = checker.expr(e);
     if checker.diags.iter().any(|d| d.is_error()) {
@@ -155,6 +157,10 @@ struct Checker<'e> {
     /// The return type of the function being checked.
     function: Option<Type>,
     loop_depth: usize,
+    /// Did-you-mean lookups still allowed. Each compares a name with every name in scope, so
+    /// a script with thousands of unknown names would take quadratic time; only as many get a
+    /// hint as diagnostics are ever shown.
+    hints_left: usize,
 }
 
 impl Checker<'_> {
@@ -545,7 +551,17 @@ impl Checker<'_> {
         }
     }
 
-    fn name_hint(&self, name: &str) -> Option<String> {
+    /// Spends one did-you-mean lookup; false when none are left.
+    fn take_hint(&mut self) -> bool {
+        let allowed = self.hints_left > 0;
+        self.hints_left = self.hints_left.saturating_sub(1);
+        allowed
+    }
+
+    fn name_hint(&mut self, name: &str) -> Option<String> {
+        if !self.take_hint() {
+            return None;
+        }
         let mut names: Vec<&str> = self
             .scopes
             .iter()
