@@ -358,6 +358,12 @@ impl Context<'_, '_> {
                 Token::Assign if !expected.starts_expression() => {
                     Some("to compare two values, use `==`".to_string())
                 }
+                Token::MinusMinus | Token::PlusPlus if expected.starts_expression() => {
+                    let sign = &text[..1];
+                    Some(format!(
+                        "`{text}` changes a variable by one; for two signs write `{sign} {sign}`"
+                    ))
+                }
                 _ => None,
             }
         };
