@@ -5,7 +5,8 @@
 
 mod common;
 
-use felt::diagnostic::MAX_RENDERED;
+use felt::diagnostic::{self, MAX_RENDERED};
+use felt::session::Session;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
@@ -145,6 +146,52 @@ fn thousands_of_errors_are_checked_quickly_and_the_first_hundred_shown() {
     );
     // Far more than it takes (about a tenth of a second); quadratic work took minutes.
     assert!(elapsed < Duration::from_secs(10), "took {elapsed:?}");
+}
+
+/// Runs of signs longer than a screen, at the prompt: a diagnostic each, with the line cut
+/// around the label (miette panicked on labels past column ~65,530).
+#[test]
+fn long_runs_of_signs_give_diagnostics_at_the_prompt() {
+    let out = common::Captured::default();
+    let mut session = Session::new(Box::new(out.clone())).unwrap_or_else(|_| panic!("no stdlib"));
+    let cases = [
+        (
+            format!("print({}1);", "-".repeat(100_000)),
+            "unexpected `--`, expected an expression",
+        ),
+        (
+            format!("float x = 1; print({}x);", "- ".repeat(100_000)),
+            "expression nested too deeply (more than 256 levels)",
+        ),
+        (
+            format!("print({}1{});", "-(".repeat(100_000), ")".repeat(100_000)),
+            "expression nested too deeply (more than 256 levels)",
+        ),
+    ];
+    for (input, message) in cases {
+        let diagnostics = session
+            .eval_input(&input, &mut |_, _| {})
+            .expect_err(message);
+        let rendered = diagnostic::render(&diagnostics, &session.sources.borrow(), false);
+        assert!(rendered.contains(message), "{rendered}");
+        assert!(
+            rendered.lines().all(|line| line.chars().count() < 400),
+            "the long line was not cut: {rendered}"
+        );
+    }
+    // Signs written apart on a number fold into the number.
+    session
+        .eval_input(
+            &format!("print({}1);", "- ".repeat(100_001)),
+            &mut |_, _| {},
+        )
+        .unwrap_or_else(|d| {
+            panic!(
+                "{}",
+                diagnostic::render(&d, &session.sources.borrow(), false)
+            )
+        });
+    assert_eq!(out.text(), "-1\n");
 }
 
 /// The same keyword twice is named as such, at the second one, even for a builtin with

@@ -286,14 +286,15 @@ impl Checker<'_> {
                 }
             }
             StmtKind::If {
-                cond,
-                then_branch,
+                branches,
                 else_branch,
             } => {
-                self.condition(cond);
-                self.block(then_branch);
-                if let Some(e) = else_branch {
-                    self.scoped_stmt(e);
+                for (cond, block) in branches {
+                    self.condition(cond);
+                    self.block(block);
+                }
+                if let Some(block) = else_branch {
+                    self.block(block);
                 }
             }
             StmtKind::For {
@@ -336,12 +337,6 @@ impl Checker<'_> {
             StmtKind::Return(value) => self.return_stmt(stmt.span, value.as_ref()),
             StmtKind::Block(b) => self.block(b),
         }
-    }
-
-    fn scoped_stmt(&mut self, stmt: &Stmt) {
-        self.scopes.push(HashMap::new());
-        self.stmt(stmt);
-        self.scopes.pop();
     }
 
     fn condition(&mut self, cond: &Expr) {
@@ -586,10 +581,9 @@ fn stmt_returns(stmt: &Stmt) -> bool {
         StmtKind::Return(_) => true,
         StmtKind::Block(b) => block_returns(b),
         StmtKind::If {
-            then_branch,
-            else_branch: Some(e),
-            ..
-        } => block_returns(then_branch) && stmt_returns(e),
+            branches,
+            else_branch: Some(otherwise),
+        } => branches.iter().all(|(_, b)| block_returns(b)) && block_returns(otherwise),
         StmtKind::While { cond, body } => {
             matches!(cond.kind, ExprKind::Bool(true)) && !contains_break(body)
         }
@@ -605,17 +599,11 @@ fn contains_break(block: &Block) -> bool {
         StmtKind::Break => true,
         StmtKind::Block(b) => contains_break(b),
         StmtKind::If {
-            then_branch,
+            branches,
             else_branch,
-            ..
         } => {
-            contains_break(then_branch)
-                || else_branch.as_ref().is_some_and(|e| {
-                    contains_break(&Block {
-                        stmts: vec![(**e).clone()],
-                        span: e.span,
-                    })
-                })
+            branches.iter().any(|(_, b)| contains_break(b))
+                || else_branch.as_ref().is_some_and(contains_break)
         }
         _ => false,
     })
