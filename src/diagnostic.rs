@@ -6,7 +6,7 @@
 //! than a screen are cut to a window around the span before miette sees them (`Elided`): miette
 //! 7.6 panics on a label past column ~65,530, and nobody reads such a line whole anyway.
 
-use crate::syntax::span::{SourceMap, Span};
+use crate::syntax::span::{SourceFile, SourceMap, Span};
 use miette::{
     GraphicalReportHandler, GraphicalTheme, LabeledSpan, MietteError, MietteSpanContents,
     NamedSource, SourceCode, SourceSpan, SpanContents,
@@ -122,36 +122,38 @@ const LONG_LINE_BYTES: usize = 1000;
 const WINDOW_BYTES: usize = 80;
 /// What stands in for each cut-out piece of a long line.
 const ELLIPSIS: &str = "…";
+/// Lines shown above and below the lines of a label.
+const CONTEXT_LINES: usize = 1;
+/// At most this many diagnostics are rendered; the rest are counted in one line. A script
+/// with thousands of errors is fixed from the top, and the count says how far there is to go.
+pub const MAX_RENDERED: usize = 100;
 
-/// Source text as miette is shown it: every line longer than `LONG_LINE_BYTES` is cut to a
-/// window around the label's ends (or its first bytes, on lines without one) with an ellipsis
-/// for each piece left out. Line numbers are unchanged, offsets map both ways, and the column
-/// miette prints in its header is worked out from the original text, so file, line and column
-/// stay right.
+/// What miette is shown of a source file for one diagnostic: only the lines around the label
+/// (so rendering a diagnostic costs the size of its excerpt, not of the file), with every
+/// line longer than `LONG_LINE_BYTES` cut to a window around the label's ends (or its first
+/// bytes, on lines without one) and an ellipsis for each piece left out. Offsets map both
+/// ways, and the line and column miette prints are worked out from the whole file, so file,
+/// line and column stay right.
 struct Elided {
-    original: Arc<str>,
+    file: Arc<SourceFile>,
     text: Arc<str>,
-    /// The pieces of `original` kept, in order: (start, end, start in `text`). Empty when no line
-    /// was cut and `text` is `original`.
+    /// The 0-based line of the file that `text` starts with.
+    first_line: usize,
+    /// The pieces of the file kept, in order: (start, end, start in `text`).
     kept: Vec<(usize, usize, usize)>,
 }
 
 impl Elided {
-    /// `original` with long lines cut around the byte offsets in `points` (the label's ends).
-    fn new(original: Arc<str>, points: &[usize]) -> Elided {
-        if !original
-            .split('\n')
-            .any(|line| line.len() > LONG_LINE_BYTES)
-        {
-            return Elided {
-                text: original.clone(),
-                original,
-                kept: Vec::new(),
-            };
-        }
-        let source: &str = &original;
-        let mut text = String::with_capacity(source.len().min(1 << 20));
-        let mut kept: Vec<(usize, usize, usize)> = vec![(0, 0, 0)];
+    /// The lines of `file` around the byte offsets `start..end` (the label), long ones cut
+    /// around both ends.
+    fn new(file: Arc<SourceFile>, start: usize, end: usize) -> Elided {
+        let source: &str = &file.text;
+        let (start, end) = (start.min(source.len()), end.min(source.len()));
+        let first_line = file.line_index(start).saturating_sub(CONTEXT_LINES);
+        let last_line = (file.line_index(end) + CONTEXT_LINES).min(file.line_count() - 1);
+        let points = [start, end];
+        let mut text = String::new();
+        let mut kept: Vec<(usize, usize, usize)> = Vec::new();
         let mut keep = |text: &mut String, start: usize, end: usize| {
             match kept.last_mut() {
                 Some(last) if last.1 == start => last.1 = end,
@@ -159,19 +161,15 @@ impl Elided {
             }
             text.push_str(&source[start..end]);
         };
-        let mut line_start = 0;
-        while line_start < source.len() {
-            let next = source[line_start..]
-                .find('\n')
-                .map_or(source.len(), |i| line_start + i + 1);
-            let line_end = if source[..next].ends_with('\n') {
+        for line in first_line..=last_line {
+            let (line_start, next) = (file.line_start(line), file.line_end(line));
+            let line_end = if source[line_start..next].ends_with('\n') {
                 next - 1
             } else {
                 next
             };
             if line_end - line_start <= LONG_LINE_BYTES {
                 keep(&mut text, line_start, next);
-                line_start = next;
                 continue;
             }
             let mut windows: Vec<(usize, usize)> = points
@@ -206,21 +204,21 @@ impl Elided {
                 text.push_str(ELLIPSIS);
             }
             keep(&mut text, line_end, next);
-            line_start = next;
         }
         Elided {
-            original,
             text: text.into(),
+            first_line,
             kept,
+            file,
         }
     }
 
-    /// Where an offset of the original text lies in `text`; one inside a cut-out piece goes to
-    /// the start of its ellipsis, or to its end when `end` is set (for the end of a span).
+    /// Where an offset of the file lies in `text`; one inside a cut-out piece goes to the
+    /// start of its ellipsis, or to its end when `end` is set (for the end of a span).
     fn to_text(&self, offset: usize, end: bool) -> usize {
         let i = self.kept.partition_point(|&(start, _, _)| start <= offset);
         let Some(&(start, stop, at)) = i.checked_sub(1).and_then(|i| self.kept.get(i)) else {
-            return offset.min(self.text.len());
+            return 0;
         };
         if offset <= stop {
             at + (offset - start)
@@ -231,7 +229,7 @@ impl Elided {
         }
     }
 
-    /// Where an offset of `text` came from in the original text.
+    /// Where an offset of `text` came from in the file.
     fn to_original(&self, offset: usize) -> usize {
         let i = self.kept.partition_point(|&(_, _, at)| at <= offset);
         let Some(&(start, stop, at)) = i.checked_sub(1).and_then(|i| self.kept.get(i)) else {
@@ -251,21 +249,19 @@ impl SourceCode for Elided {
         let inner = self
             .text
             .read_span(span, context_lines_before, context_lines_after)?;
-        if self.kept.is_empty() {
-            return Ok(inner);
-        }
-        // miette counts the column in bytes from the line start; count it in the original.
+        // miette counts lines from the start of the text it is given, and columns in bytes
+        // from the line start: count both in the file.
         let offset = self.to_original(inner.span().offset());
-        let line_start = self.original[..offset].rfind('\n').map_or(0, |i| i + 1);
+        let line = self.file.line_index(offset);
         let column = if inner.column() == 0 {
             0
         } else {
-            offset - line_start
+            offset - self.file.line_start(line)
         };
         Ok(Box::new(MietteSpanContents::new(
             inner.data(),
             *inner.span(),
-            inner.line(),
+            inner.line() + self.first_line,
             column,
             inner.line_count(),
         )))
@@ -305,7 +301,7 @@ impl Report {
         let source = diagnostic.span.and_then(|span| {
             let file = sources.try_get(span.file)?;
             let (start, end) = (span.start as usize, span.end as usize);
-            let elided = Elided::new(file.text.clone(), &[start, end]);
+            let elided = Elided::new(file.clone(), start, end);
             let (from, to) = (elided.to_text(start, false), elided.to_text(end, true));
             label_span = Some((from, to.max(from) - from));
             Some(NamedSource::new(file.name.clone(), elided))
@@ -378,7 +374,8 @@ impl miette::Diagnostic for Report {
     }
 }
 
-/// Renders diagnostics as text: with colours for a terminal, plain for files and tests.
+/// Renders diagnostics as text: with colours for a terminal, plain for files and tests. The
+/// first `MAX_RENDERED` are shown in full, the rest counted in a last line.
 pub fn render(diagnostics: &[Diagnostic], sources: &SourceMap, color: bool) -> String {
     let theme = if color {
         GraphicalTheme::unicode()
@@ -387,16 +384,38 @@ pub fn render(diagnostics: &[Diagnostic], sources: &SourceMap, color: bool) -> S
     };
     let handler = GraphicalReportHandler::new_themed(theme)
         .with_width(100)
-        .with_links(false);
+        .with_links(false)
+        .with_context_lines(CONTEXT_LINES);
     let mut out = String::new();
-    for diagnostic in diagnostics {
+    let shown = diagnostics.len().min(MAX_RENDERED);
+    for diagnostic in &diagnostics[..shown] {
         let report = Report::new(diagnostic, sources);
         if handler.render_report(&mut out, &report).is_err() {
             out.push_str(&diagnostic.message);
             out.push('\n');
         }
     }
+    if let Some(line) = left_out(&diagnostics[shown..]) {
+        out.push_str(&line);
+        out.push('\n');
+    }
     out
+}
+
+/// "… and 12 more errors and 1 more warning": the diagnostics not rendered.
+fn left_out(rest: &[Diagnostic]) -> Option<String> {
+    let errors = rest.iter().filter(|d| d.is_error()).count();
+    let warnings = rest.len() - errors;
+    let count = |n: usize, what: &str| match n {
+        0 => None,
+        1 => Some(format!("1 more {what}")),
+        n => Some(format!("{n} more {what}s")),
+    };
+    let parts: Vec<String> = [count(errors, "error"), count(warnings, "warning")]
+        .into_iter()
+        .flatten()
+        .collect();
+    (!parts.is_empty()).then(|| format!("{ELLIPSIS} and {}", parts.join(" and ")))
 }
 
 /// "file:line:column" of a span, for one-line messages (warnings in a profile, the REPL).
@@ -417,11 +436,61 @@ mod tests {
         render(&[diagnostic], &sources, false)
     }
 
+    fn file(text: &str) -> Arc<SourceFile> {
+        Arc::new(SourceFile::new("t.felt", text))
+    }
+
     #[test]
     fn short_lines_are_shown_whole() {
-        let elided = Elided::new(Arc::from("a = 1;\nb = 2;\n"), &[0, 1]);
-        assert!(elided.kept.is_empty());
+        let elided = Elided::new(file("a = 1;\nb = 2;\n"), 0, 1);
+        assert_eq!(elided.kept, [(0, 14, 0)]);
         assert_eq!(&*elided.text, "a = 1;\nb = 2;\n");
+    }
+
+    #[test]
+    fn only_the_lines_around_the_label_are_shown() {
+        let text: String = (1..=1000).map(|i| format!("line{i};\n")).collect();
+        let start = text.find("line500;").unwrap();
+        let elided = Elided::new(file(&text), start, start + 7);
+        assert_eq!(&*elided.text, "line499;\nline500;\nline501;\n");
+        let out = rendered(&text, start, start + 7);
+        assert!(out.contains("[t.felt:500:1]"), "{out}");
+        assert!(out.contains(" 499 │ line499;"), "{out}");
+        assert!(out.contains(" 501 │ line501;"), "{out}");
+        assert!(!out.contains("line498"), "{out}");
+        // The last line, with and without a newline after it.
+        for text in ["a;\nb;\nlast", "a;\nb;\nlast\n"] {
+            let out = rendered(text, 6, 10);
+            assert!(out.contains("[t.felt:3:1]"), "{out}");
+            assert!(out.contains("last"), "{out}");
+        }
+        let out = rendered("a;\n", 3, 3);
+        assert!(out.contains("[t.felt:2:1]"), "{out}");
+    }
+
+    #[test]
+    fn many_diagnostics_are_cut_to_the_first_hundred_and_a_count() {
+        let mut sources = SourceMap::default();
+        let text = "x;\n".repeat(MAX_RENDERED + 30);
+        let file = sources.add("t.felt", text);
+        let mut diagnostics: Vec<Diagnostic> = (0..MAX_RENDERED + 25)
+            .map(|i| Diagnostic::error(Stage::Name, Span::new(file, 3 * i, 3 * i + 1), "bad"))
+            .collect();
+        diagnostics.push(Diagnostic::warning(
+            Stage::Name,
+            Span::new(file, 0, 1),
+            "odd",
+        ));
+        let out = render(&diagnostics, &sources, false);
+        assert_eq!(out.matches("× bad").count(), MAX_RENDERED, "{out}");
+        assert!(out.contains("[t.felt:100:1]"), "{out}");
+        assert!(!out.contains("[t.felt:101:1]"), "{out}");
+        assert!(
+            out.ends_with("… and 25 more errors and 1 more warning\n"),
+            "{out}"
+        );
+        let out = render(&diagnostics[..MAX_RENDERED], &sources, false);
+        assert!(!out.contains("more error"), "{out}");
     }
 
     #[test]
@@ -435,8 +504,9 @@ mod tests {
         );
         let start = text.find("name").unwrap();
         let end = text.find("tail").unwrap() + 4;
-        let elided = Elided::new(Arc::from(text.as_str()), &[start, end]);
-        assert_eq!(elided.text.lines().count(), text.lines().count());
+        let elided = Elided::new(file(&text), start, end);
+        // The label's line and one on either side.
+        assert_eq!(elided.text.lines().count(), 3);
         assert!(
             elided.text.lines().all(|l| l.len() < 1000),
             "{}",

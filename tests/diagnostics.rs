@@ -5,7 +5,10 @@
 
 mod common;
 
+use felt::diagnostic::{self, MAX_RENDERED};
+use felt::session::Session;
 use std::path::Path;
+use std::time::{Duration, Instant};
 
 /// (script, line, column of the primary span, a phrase the message must contain)
 const CASES: &[(&str, usize, usize, &str)] = &[
@@ -100,6 +103,132 @@ fn runtime_errors_show_the_call_stack() {
     );
     assert!(
         outcome.rendered.contains("runtime_call_stack.felt:7:7]"),
+        "{}",
+        outcome.rendered
+    );
+}
+
+/// A script with thousands of errors: every one is found, the first hundred are shown and the
+/// rest counted in one line, and only those hundred get a did-you-mean (each lookup compares
+/// the name with every variable in scope; one per error made checking quadratic, and 16,000
+/// unknown names took a minute, most of it spent rendering all of them).
+#[test]
+fn thousands_of_errors_are_checked_quickly_and_the_first_hundred_shown() {
+    let n = 20_000;
+    let script: String = (0..n)
+        .map(|i| format!("float value{i} = 1;\nprint(valeu{i});\n"))
+        .collect();
+    let started = Instant::now();
+    let outcome = common::run_source("many_errors.felt", &script);
+    let elapsed = started.elapsed();
+    assert!(!outcome.ok);
+    assert_eq!(outcome.diagnostics.len(), n);
+    let hinted: Vec<usize> = outcome
+        .diagnostics
+        .iter()
+        .enumerate()
+        .filter(|(_, d)| d.help.is_some())
+        .map(|(i, _)| i)
+        .collect();
+    assert_eq!(hinted, (0..MAX_RENDERED).collect::<Vec<_>>());
+    assert_eq!(
+        outcome.diagnostics[7].help.as_deref(),
+        Some("did you mean `value7`?")
+    );
+    let shown = outcome.rendered.matches("unknown variable").count();
+    assert_eq!(shown, MAX_RENDERED);
+    assert!(
+        outcome
+            .rendered
+            .ends_with(&format!("… and {} more errors\n", n - MAX_RENDERED)),
+        "{}",
+        &outcome.rendered[outcome.rendered.len() - 200..]
+    );
+    // Far more than it takes (about a tenth of a second); quadratic work took minutes.
+    assert!(elapsed < Duration::from_secs(10), "took {elapsed:?}");
+}
+
+/// Runs of signs longer than a screen, at the prompt: a diagnostic each, with the line cut
+/// around the label (miette panicked on labels past column ~65,530).
+#[test]
+fn long_runs_of_signs_give_diagnostics_at_the_prompt() {
+    let out = common::Captured::default();
+    let mut session = Session::new(Box::new(out.clone())).unwrap_or_else(|_| panic!("no stdlib"));
+    let cases = [
+        (
+            format!("print({}1);", "-".repeat(100_000)),
+            "unexpected `--`, expected an expression",
+        ),
+        (
+            format!("float x = 1; print({}x);", "- ".repeat(100_000)),
+            "expression nested too deeply (more than 256 levels)",
+        ),
+        (
+            format!("print({}1{});", "-(".repeat(100_000), ")".repeat(100_000)),
+            "expression nested too deeply (more than 256 levels)",
+        ),
+    ];
+    for (input, message) in cases {
+        let diagnostics = session
+            .eval_input(&input, &mut |_, _| {})
+            .expect_err(message);
+        let rendered = diagnostic::render(&diagnostics, &session.sources.borrow(), false);
+        assert!(rendered.contains(message), "{rendered}");
+        assert!(
+            rendered.lines().all(|line| line.chars().count() < 400),
+            "the long line was not cut: {rendered}"
+        );
+    }
+    // Signs written apart on a number fold into the number.
+    session
+        .eval_input(
+            &format!("print({}1);", "- ".repeat(100_001)),
+            &mut |_, _| {},
+        )
+        .unwrap_or_else(|d| {
+            panic!(
+                "{}",
+                diagnostic::render(&d, &session.sources.borrow(), false)
+            )
+        });
+    assert_eq!(out.text(), "-1\n");
+}
+
+/// The same keyword twice is named as such, at the second one, even for a builtin with
+/// several forms (it used to be "no form of `render` takes ...").
+#[test]
+fn a_keyword_argument_given_twice_is_pointed_at() {
+    let outcome = common::run_source(
+        "twice.felt",
+        "scalarfield d = identity().x;\nrender(\"a.exr\", density = d, density = d);\n",
+    );
+    assert!(!outcome.ok);
+    assert_eq!(outcome.diagnostics.len(), 1, "{}", outcome.rendered);
+    assert!(
+        outcome
+            .rendered
+            .contains("argument `density` of `render` is given twice"),
+        "{}",
+        outcome.rendered
+    );
+    assert!(
+        outcome.rendered.contains("twice.felt:2:30]"),
+        "{}",
+        outcome.rendered
+    );
+}
+
+/// Editors on Windows may start a file with a byte-order mark; it is not part of the script.
+#[test]
+fn a_byte_order_mark_at_the_start_of_a_script_is_skipped() {
+    let outcome = common::run_source("marked.felt", "\u{feff}print(1 + 1);\nprint(2);\n");
+    assert!(outcome.ok, "{}", outcome.rendered);
+    assert_eq!(outcome.output, "2\n2\n");
+    // Positions are still those of the file as read: columns count bytes, the mark's three
+    // included.
+    let outcome = common::run_source("marked.felt", "\u{feff}print(nothing);\n");
+    assert!(
+        outcome.rendered.contains("marked.felt:1:10]"),
         "{}",
         outcome.rendered
     );

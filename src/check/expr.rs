@@ -78,20 +78,13 @@ impl Checker<'_> {
                     Type::Error
                 })
             }
-            ExprKind::Binary(op, l, r) => {
-                let lt = self.expr(l);
-                let rt = self.expr(r);
-                binary_result(*op, &lt, &rt).unwrap_or_else(|message| {
-                    let d = self.error(Stage::Type, e.span, message);
-                    if lt.is_field() || rt.is_field() {
-                        if matches!(op, BinaryOp::Lt | BinaryOp::Le | BinaryOp::Gt | BinaryOp::Ge | BinaryOp::Eq | BinaryOp::Ne) {
-                            d.help = Some(String::from("use mask(f) (1 where f >= 0) or select(c, a, b) for pointwise choices"));
-                        }
-                    } else if *op == BinaryOp::Add && (lt == Type::Str || rt == Type::Str) {
-                        d.help = Some(String::from("convert with str(x) before joining strings"));
-                    }
-                    Type::Error
-                })
+            ExprKind::Binary(first, operations) => {
+                let mut lt = self.expr(first);
+                for operation in operations {
+                    let rt = self.expr(&operation.operand);
+                    lt = self.binary(operation, &lt, &rt);
+                }
+                lt
             }
             ExprKind::Call { callee, args } => self.call(e.span, callee, args),
             ExprKind::Index(base, index) => {
@@ -143,6 +136,32 @@ impl Checker<'_> {
                 }
             }
         }
+    }
+
+    /// The type of one operation of a chain, from the types of its two sides.
+    fn binary(&mut self, operation: &Operation, lt: &Type, rt: &Type) -> Type {
+        let op = operation.op;
+        binary_result(op, lt, rt).unwrap_or_else(|message| {
+            let d = self.error(Stage::Type, operation.span, message);
+            if lt.is_field() || rt.is_field() {
+                if matches!(
+                    op,
+                    BinaryOp::Lt
+                        | BinaryOp::Le
+                        | BinaryOp::Gt
+                        | BinaryOp::Ge
+                        | BinaryOp::Eq
+                        | BinaryOp::Ne
+                ) {
+                    d.help = Some(String::from(
+                        "use mask(f) (1 where f >= 0) or select(c, a, b) for pointwise choices",
+                    ));
+                }
+            } else if op == BinaryOp::Add && (*lt == Type::Str || *rt == Type::Str) {
+                d.help = Some(String::from("convert with str(x) before joining strings"));
+            }
+            Type::Error
+        })
     }
 
     pub(super) fn tuple(&mut self, span: Span, items: &[Expr]) -> Type {
@@ -237,10 +256,14 @@ impl Checker<'_> {
         for a in args {
             self.expr(&a.value);
         }
-        let mut names: Vec<String> = self.env.funcs.keys().cloned().collect();
-        names.extend(registry::registry().names().map(String::from));
-        let help = suggest::closest(&callee.name, names.iter().map(|s| s.as_str()))
-            .map(|s| format!("did you mean `{s}`?"));
+        let help = if self.take_hint() {
+            let mut names: Vec<String> = self.env.funcs.keys().cloned().collect();
+            names.extend(registry::registry().names().map(String::from));
+            suggest::closest(&callee.name, names.iter().map(|s| s.as_str()))
+                .map(|s| format!("did you mean `{s}`?"))
+        } else {
+            None
+        };
         let is_var = self.lookup(&callee.name).is_some();
         let d = self.error(
             Stage::Name,

@@ -11,7 +11,7 @@
 mod expr;
 pub mod types;
 
-use crate::diagnostic::{Diagnostic, Stage};
+use crate::diagnostic::{Diagnostic, MAX_RENDERED, Stage};
 use crate::interp::registry;
 use crate::interp::suggest;
 use crate::syntax::ast::*;
@@ -119,6 +119,7 @@ pub fn check_program(env: &mut CheckEnv, program: &Program) -> Vec<Diagnostic> {
         diags: Vec::new(),
         function: None,
         loop_depth: 0,
+        hints_left: MAX_RENDERED,
     };
     for item in &program.items {
         match item {
@@ -138,6 +139,7 @@ pub fn type_of_expr(env: &mut CheckEnv, e: &Expr) -> Result<Type, Vec<Diagnostic
         diags: Vec::new(),
         function: None,
         loop_depth: 0,
+        hints_left: MAX_RENDERED,
     };
     let ty = checker.expr(e);
     if checker.diags.iter().any(|d| d.is_error()) {
@@ -155,6 +157,10 @@ struct Checker<'e> {
     /// The return type of the function being checked.
     function: Option<Type>,
     loop_depth: usize,
+    /// Did-you-mean lookups still allowed. Each compares a name with every name in scope, so
+    /// a script with thousands of unknown names would take quadratic time; only as many get a
+    /// hint as diagnostics are ever shown.
+    hints_left: usize,
 }
 
 impl Checker<'_> {
@@ -280,14 +286,15 @@ impl Checker<'_> {
                 }
             }
             StmtKind::If {
-                cond,
-                then_branch,
+                branches,
                 else_branch,
             } => {
-                self.condition(cond);
-                self.block(then_branch);
-                if let Some(e) = else_branch {
-                    self.scoped_stmt(e);
+                for (cond, block) in branches {
+                    self.condition(cond);
+                    self.block(block);
+                }
+                if let Some(block) = else_branch {
+                    self.block(block);
                 }
             }
             StmtKind::For {
@@ -330,12 +337,6 @@ impl Checker<'_> {
             StmtKind::Return(value) => self.return_stmt(stmt.span, value.as_ref()),
             StmtKind::Block(b) => self.block(b),
         }
-    }
-
-    fn scoped_stmt(&mut self, stmt: &Stmt) {
-        self.scopes.push(HashMap::new());
-        self.stmt(stmt);
-        self.scopes.pop();
     }
 
     fn condition(&mut self, cond: &Expr) {
@@ -545,7 +546,17 @@ impl Checker<'_> {
         }
     }
 
-    fn name_hint(&self, name: &str) -> Option<String> {
+    /// Spends one did-you-mean lookup; false when none are left.
+    fn take_hint(&mut self) -> bool {
+        let allowed = self.hints_left > 0;
+        self.hints_left = self.hints_left.saturating_sub(1);
+        allowed
+    }
+
+    fn name_hint(&mut self, name: &str) -> Option<String> {
+        if !self.take_hint() {
+            return None;
+        }
         let mut names: Vec<&str> = self
             .scopes
             .iter()
@@ -570,10 +581,9 @@ fn stmt_returns(stmt: &Stmt) -> bool {
         StmtKind::Return(_) => true,
         StmtKind::Block(b) => block_returns(b),
         StmtKind::If {
-            then_branch,
-            else_branch: Some(e),
-            ..
-        } => block_returns(then_branch) && stmt_returns(e),
+            branches,
+            else_branch: Some(otherwise),
+        } => branches.iter().all(|(_, b)| block_returns(b)) && block_returns(otherwise),
         StmtKind::While { cond, body } => {
             matches!(cond.kind, ExprKind::Bool(true)) && !contains_break(body)
         }
@@ -589,17 +599,11 @@ fn contains_break(block: &Block) -> bool {
         StmtKind::Break => true,
         StmtKind::Block(b) => contains_break(b),
         StmtKind::If {
-            then_branch,
+            branches,
             else_branch,
-            ..
         } => {
-            contains_break(then_branch)
-                || else_branch.as_ref().is_some_and(|e| {
-                    contains_break(&Block {
-                        stmts: vec![(**e).clone()],
-                        span: e.span,
-                    })
-                })
+            branches.iter().any(|(_, b)| contains_break(b))
+                || else_branch.as_ref().is_some_and(contains_break)
         }
         _ => false,
     })

@@ -59,28 +59,12 @@ impl Interpreter {
                 let v = self.eval(operand)?;
                 ops::unary(*op, v).map_err(|f| self.error(e.span, f))
             }
-            ExprKind::Binary(BinaryOp::And, l, r) => {
-                let left = self.eval(l)?.as_bool().map_err(|f| self.error(l.span, f))?;
-                if !left {
-                    return Ok(Value::Bool(false));
-                }
-                let right = self.eval(r)?.as_bool().map_err(|f| self.error(r.span, f))?;
-                Ok(Value::Bool(right))
-            }
-            ExprKind::Binary(BinaryOp::Or, l, r) => {
-                let left = self.eval(l)?.as_bool().map_err(|f| self.error(l.span, f))?;
-                if left {
-                    return Ok(Value::Bool(true));
-                }
-                let right = self.eval(r)?.as_bool().map_err(|f| self.error(r.span, f))?;
-                Ok(Value::Bool(right))
-            }
-            ExprKind::Binary(op, l, r) => {
-                let left = self.eval(l)?;
-                let right = self.eval(r)?;
-                let value = ops::binary(*op, left, right).map_err(|f| self.error(e.span, f))?;
-                if matches!(value, Value::Field(_)) {
-                    crate::field::node::check_graph_memory().map_err(|f| self.error(e.span, f))?;
+            ExprKind::Binary(first, operations) => {
+                let mut value = self.eval(first)?;
+                let mut span = first.span;
+                for operation in operations {
+                    value = self.operation(value, span, operation)?;
+                    span = operation.span;
                 }
                 Ok(value)
             }
@@ -119,6 +103,38 @@ impl Interpreter {
                         )),
                     )),
                 }
+            }
+        }
+    }
+
+    /// One operation of a chain applied to the value so far (`left`, written at `left_span`).
+    fn operation(
+        &mut self,
+        left: Value,
+        left_span: Span,
+        operation: &Operation,
+    ) -> Result<Value, Diagnostic> {
+        let right = &operation.operand;
+        match operation.op {
+            BinaryOp::And | BinaryOp::Or => {
+                let left = left.as_bool().map_err(|f| self.error(left_span, f))?;
+                // The right side is evaluated only when it decides the value.
+                if left == (operation.op == BinaryOp::Or) {
+                    return Ok(Value::Bool(left));
+                }
+                let value = self.eval(right)?;
+                let right = value.as_bool().map_err(|f| self.error(right.span, f))?;
+                Ok(Value::Bool(right))
+            }
+            op => {
+                let value = self.eval(right)?;
+                let value =
+                    ops::binary(op, left, value).map_err(|f| self.error(operation.span, f))?;
+                if matches!(value, Value::Field(_)) {
+                    crate::field::node::check_graph_memory()
+                        .map_err(|f| self.error(operation.span, f))?;
+                }
+                Ok(value)
             }
         }
     }

@@ -103,19 +103,17 @@ impl Interpreter {
                 Ok(Flow::Normal)
             }
             StmtKind::If {
-                cond,
-                then_branch,
+                branches,
                 else_branch,
             } => {
-                if self.condition(cond)? {
-                    self.exec_block(then_branch)
-                } else if let Some(e) = else_branch {
-                    self.push_scope();
-                    let flow = self.exec(e);
-                    self.pop_scope();
-                    flow
-                } else {
-                    Ok(Flow::Normal)
+                for (cond, block) in branches {
+                    if self.condition(cond)? {
+                        return self.exec_block(block);
+                    }
+                }
+                match else_branch {
+                    Some(block) => self.exec_block(block),
+                    None => Ok(Flow::Normal),
                 }
             }
             StmtKind::For {

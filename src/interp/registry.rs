@@ -234,6 +234,15 @@ pub enum Resolution {
 /// Matches positional and keyword arguments (`names[i]` is the keyword of argument `i`, if
 /// any) against the builtin's forms.
 pub fn resolve(builtin: &Builtin, types: &[Type], names: &[Option<String>]) -> Resolution {
+    // The same keyword twice is wrong whatever the form, so it is said before trying them
+    // (otherwise a builtin with several forms could only answer "no form takes ...").
+    if let Some((arg, keyword)) = repeated_keyword(names) {
+        return Resolution::Mismatch {
+            message: format!("argument `{keyword}` of `{}` is given twice", builtin.name),
+            arg: Some(arg),
+            help: Some(format!("remove one of the two `{keyword} = ...`")),
+        };
+    }
     let mut first_error = None;
     let single = builtin.signatures.len() == 1;
     for (form, sig) in builtin.signatures.iter().enumerate() {
@@ -261,6 +270,16 @@ pub fn resolve(builtin: &Builtin, types: &[Type], names: &[Option<String>]) -> R
             help: Some(format!("the forms are:\n{}", builtin.forms().join("\n"))),
         }
     }
+}
+
+/// The first keyword argument whose keyword an earlier argument already used: its index and
+/// the keyword.
+fn repeated_keyword(names: &[Option<String>]) -> Option<(usize, &str)> {
+    let mut seen = std::collections::HashSet::new();
+    names.iter().enumerate().find_map(|(i, name)| {
+        let name = name.as_deref()?;
+        (!seen.insert(name)).then_some((i, name))
+    })
 }
 
 type Matched = (Vec<Option<usize>>, Vec<usize>);
@@ -443,6 +462,19 @@ mod tests {
                 assert_eq!(name, b.name);
             }
         }
+    }
+
+    #[test]
+    fn a_keyword_given_twice_is_named_whatever_the_forms() {
+        let render = registry().get("render").unwrap();
+        assert!(render.signatures.len() > 1);
+        let types = [Type::Str, Type::ScalarField, Type::ScalarField];
+        let names = [None, Some("density".into()), Some("density".into())];
+        let Resolution::Mismatch { message, arg, .. } = resolve(render, &types, &names) else {
+            panic!("resolved")
+        };
+        assert_eq!(message, "argument `density` of `render` is given twice");
+        assert_eq!(arg, Some(2));
     }
 
     #[test]

@@ -7,10 +7,15 @@
 //! checking it, running it) walks that tree recursively. So no expression deeper than
 //! [`MAX_NESTING`] is ever built: each builder measures the node it makes and refuses with
 //! "expression nested too deeply". Measuring recurses too, but only through nodes that
-//! already passed the check, so it never goes deeper than the limit. Runs of prefix
-//! operators and `^` chains are collected as lists by the grammar and folded here, so that
-//! `- - - - x` does not deepen the parser's own stack either. Statement nesting (blocks and
-//! bare `if`/`for`/`while` bodies) is bounded before parsing, by the bracket scan in `parse`.
+//! already passed the check, so it never goes deeper than the limit. What scripts repeat
+//! without nesting is built flat and costs no depth: a left-associative operator continues
+//! the chain to its left (`1 + 1 + ... + 1` is one node, and only each new operand is
+//! measured), and an `else if` joins the `if` before it. Runs of prefix operators and `^`
+//! chains are collected as lists by the grammar and folded here, so that `- - - - x` does not
+//! deepen the parser's own stack either. Statement nesting (blocks and bare `if`/`for`/`while`
+//! bodies) is bounded before parsing, by the bracket scan in `parse`.
+
+use std::collections::VecDeque;
 
 use lalrpop_util::{ErrorRecovery, ParseError};
 
@@ -23,6 +28,9 @@ use super::span::{FileId, Span};
 /// hand-written script, and small enough that a recursive walk over the tree needs well under
 /// a megabyte of stack.
 pub const MAX_NESTING: usize = 256;
+
+/// The most `[]` a type may have (arrays of arrays of ...): what a `u8` holds.
+pub const MAX_ARRAY_DEPTH: usize = u8::MAX as usize;
 
 /// An error kept during parsing, either lalrpop's own (with its recovery) or one of ours.
 pub type Recovery<'src> = ErrorRecovery<usize, Token<'src>, SyntaxError>;
@@ -41,8 +49,9 @@ pub fn span(file: FileId, start: usize, end: usize) -> Span {
     Span::new(file, start, end)
 }
 
-/// Nesting depth of an expression. Only called on children that were themselves checked, so
-/// the recursion is bounded by [`MAX_NESTING`].
+/// Nesting depth of an expression: a chain of operations is one level, whatever its length.
+/// Only called on children that were themselves checked, so the recursion is bounded by
+/// [`MAX_NESTING`].
 fn depth(e: &Expr) -> usize {
     1 + match &e.kind {
         ExprKind::Int(_)
@@ -54,27 +63,69 @@ fn depth(e: &Expr) -> usize {
             items.iter().map(depth).max().unwrap_or(0)
         }
         ExprKind::Unary(_, operand) | ExprKind::Member(operand, _) => depth(operand),
-        ExprKind::Binary(_, a, b) | ExprKind::Index(a, b) => depth(a).max(depth(b)),
+        ExprKind::Binary(first, operations) => operations
+            .iter()
+            .map(|o| depth(&o.operand))
+            .fold(depth(first), usize::max),
+        ExprKind::Index(a, b) => depth(a).max(depth(b)),
         ExprKind::Call { args, .. } => args.iter().map(|a| depth(&a.value)).max().unwrap_or(0),
+    }
+}
+
+fn too_deep<'src>(span: Span) -> ParseError<usize, Token<'src>, SyntaxError> {
+    ParseError::User {
+        error: SyntaxError::new(
+            format!("expression nested too deeply (more than {MAX_NESTING} levels)"),
+            span,
+        )
+        .with_help("compute parts of this expression into variables first"),
     }
 }
 
 fn checked<'src>(kind: ExprKind, span: Span) -> Built<'src, Expr> {
     let e = Expr { kind, span };
     if depth(&e) > MAX_NESTING {
-        return Err(ParseError::User {
-            error: SyntaxError::new("expression nested too deeply", span).with_help(format!(
-                "felt allows {MAX_NESTING} levels of nesting; \
-                 compute parts of this expression into variables first"
-            )),
-        });
+        return Err(too_deep(span));
     }
     Ok(e)
 }
 
+/// `left op right`. When `left` is itself a chain of operations written without parentheses,
+/// this one continues it: `(a + b) - c` and `a + b - c` are the same left-to-right fold, and
+/// a long sum stays one node. The chain passed the depth check when it was built, so only the
+/// new operand is measured, and building a chain of n terms takes time linear in n.
 pub fn binary<'src>(left: Expr, op: BinaryOp, right: Expr) -> Built<'src, Expr> {
     let span = left.span.to(right.span);
-    checked(ExprKind::Binary(op, Box::new(left), Box::new(right)), span)
+    let operation = Operation {
+        op,
+        operand: right,
+        span,
+    };
+    let Expr {
+        kind,
+        span: left_span,
+    } = left;
+    match kind {
+        ExprKind::Binary(first, mut operations)
+            if operations.last().is_some_and(|o| o.span == left_span) =>
+        {
+            if 1 + depth(&operation.operand) > MAX_NESTING {
+                return Err(too_deep(span));
+            }
+            operations.push(operation);
+            Ok(Expr {
+                kind: ExprKind::Binary(first, operations),
+                span,
+            })
+        }
+        kind => {
+            let left = Expr {
+                kind,
+                span: left_span,
+            };
+            checked(ExprKind::Binary(Box::new(left), vec![operation]), span)
+        }
+    }
 }
 
 /// Applies prefix operators (each with its start offset), innermost first. A `-` directly
@@ -201,13 +252,16 @@ pub fn check_argument_order(args: &[Arg], errors: &mut Vec<Recovery<'_>>) {
 /// A type as written: `base` followed by `dims` pairs of `[]`.
 pub fn type_expr<'src>(base: BaseType, dims: usize, span: Span) -> Built<'src, TypeExpr> {
     match u8::try_from(dims) {
-        Ok(array_depth) if dims <= MAX_NESTING => Ok(TypeExpr {
+        Ok(array_depth) if dims <= MAX_ARRAY_DEPTH => Ok(TypeExpr {
             base,
             array_depth,
             span,
         }),
         _ => Err(ParseError::User {
-            error: SyntaxError::new("too many `[]` in a type", span),
+            error: SyntaxError::new(
+                format!("too many `[]` in a type (more than {MAX_ARRAY_DEPTH})"),
+                span,
+            ),
         }),
     }
 }
@@ -338,18 +392,57 @@ pub fn body(mut stmts: Vec<Stmt>, span: Span, errors: &mut Vec<Recovery<'_>>) ->
     block(stmts, span, errors)
 }
 
-/// The `else` part: another `if` (an `else if` chain) or a block.
-pub fn else_branch(mut stmts: Vec<Stmt>, span: Span, errors: &mut Vec<Recovery<'_>>) -> Box<Stmt> {
+/// The `else` part: another `if` (an `else if`) or a block.
+pub fn else_branch(mut stmts: Vec<Stmt>, span: Span, errors: &mut Vec<Recovery<'_>>) -> Stmt {
     if stmts.len() == 1
         && let Some(stmt) =
             stmts.pop_if(|s| matches!(s.kind, StmtKind::If { .. } | StmtKind::Block(_)))
     {
-        return Box::new(stmt);
+        return stmt;
     }
-    Box::new(Stmt {
+    Stmt {
         kind: StmtKind::Block(block(stmts, span, errors)),
         span,
-    })
+    }
+}
+
+/// `if (cond) then_branch` with its `else` part, if any. An `if` as the `else` part is an
+/// `else if`: its branches join this one's, so the chain is one statement however long.
+/// Each is added in front of the chain in constant time (the chain is built from its end).
+pub fn if_else(cond: Expr, then_branch: Block, else_part: Option<Stmt>, span: Span) -> Stmt {
+    let (mut branches, else_branch) = match else_part {
+        None => (VecDeque::new(), None),
+        Some(Stmt {
+            kind:
+                StmtKind::If {
+                    branches,
+                    else_branch,
+                },
+            ..
+        }) => (branches, else_branch),
+        Some(Stmt {
+            kind: StmtKind::Block(b),
+            ..
+        }) => (VecDeque::new(), Some(b)),
+        Some(other) => {
+            let span = other.span;
+            (
+                VecDeque::new(),
+                Some(Block {
+                    stmts: vec![other],
+                    span,
+                }),
+            )
+        }
+    };
+    branches.push_front((cond, then_branch));
+    Stmt {
+        kind: StmtKind::If {
+            branches,
+            else_branch,
+        },
+        span,
+    }
 }
 
 /// A declaration in a `for` header: the header is not the top level.

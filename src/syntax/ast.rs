@@ -5,8 +5,15 @@
 //! Vector and matrix literals are both parenthesised lists (`(1, 2, 3)`,
 //! `((1,0,0),(0,1,0),(0,0,1))`); the parser produces `ExprKind::Tuple` and the checker decides
 //! which it is from the element types.
+//!
+//! The shapes that scripts repeat without nesting are flat: a chain of binary operators
+//! (`1 + 1 + ... + 1`) is one `Binary` node with a list of operations, and an `else if` chain
+//! one `If` with a list of branches. Every pass over the tree (checking, running, dropping,
+//! cloning) recurses, and so goes only as deep as the script really nests, which the parser
+//! bounds.
 
 use super::span::Span;
+use std::collections::VecDeque;
 
 /// A whole source file.
 #[derive(Clone, Debug, PartialEq)]
@@ -162,11 +169,13 @@ pub enum StmtKind {
         target: Expr,
         increment: bool,
     },
+    /// `if (c1) B1 else if (c2) B2 ... else E`: each condition with its block, in order, then
+    /// the final `else`. An `else if` chain is one statement however long it is, so that the
+    /// passes over the tree go no deeper for it. The parser meets the last `else if` first and
+    /// adds each earlier one in front, hence a deque.
     If {
-        cond: Expr,
-        then_branch: Block,
-        /// Either a `Block` statement or another `If` (for `else if`).
-        else_branch: Option<Box<Stmt>>,
+        branches: VecDeque<(Expr, Block)>,
+        else_branch: Option<Block>,
     },
     For {
         init: Option<Box<Stmt>>,
@@ -231,6 +240,15 @@ impl BinaryOp {
     }
 }
 
+/// One step of a `Binary` chain: `op operand`, with the span of the chain up to this step's
+/// operand (what `a + b` covers in `a + b + c`), where an error of this step points.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Operation {
+    pub op: BinaryOp,
+    pub operand: Expr,
+    pub span: Span,
+}
+
 /// A call argument, optionally named (`step = 0.01`; builtins only).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Arg {
@@ -257,7 +275,11 @@ pub enum ExprKind {
     /// `{a, b, c}`: an array literal.
     Array(Vec<Expr>),
     Unary(UnaryOp, Box<Expr>),
-    Binary(BinaryOp, Box<Expr>, Box<Expr>),
+    /// `a + b * c - d`: an operand and the operations applied to it in turn, left to right
+    /// (`(a + (b * c)) - d` here). A run of left-associative operators is one node however
+    /// long it is, so that the passes over the tree recurse only as deep as the script nests;
+    /// the right-associative `^` nests, one operation per node.
+    Binary(Box<Expr>, Vec<Operation>),
     /// `name(args)`; `name` may be a type keyword used as a constructor (`scalarfield(1.0)`).
     Call {
         callee: Ident,

@@ -209,14 +209,30 @@ impl Token<'_> {
     }
 }
 
+/// A UTF-8 byte-order mark, which some editors on Windows write at the start of a file.
+const BYTE_ORDER_MARK: char = '\u{feff}';
+
+/// How many bytes at the start of `source` are a byte-order mark (0 or 3): skipped, because it
+/// is not part of the text. Only at the very start; anywhere else it is an unknown character.
+pub fn byte_order_mark_len(source: &str) -> usize {
+    if source.starts_with(BYTE_ORDER_MARK) {
+        BYTE_ORDER_MARK.len_utf8()
+    } else {
+        0
+    }
+}
+
 /// Lexes a whole file. Returns the tokens and every lexical error; the token list skips the
 /// erroneous stretches, so it is only meaningful to parse when the error list is empty.
+/// Offsets are into `source`, a byte-order mark at its start included.
 pub fn tokenize(file: FileId, source: &str) -> (Vec<Spanned<'_>>, Vec<SyntaxError>) {
     let mut tokens = Vec::new();
     let mut errors = Vec::new();
-    let mut lexer = Token::lexer(source);
+    let skip = byte_order_mark_len(source);
+    let mut lexer = Token::lexer(&source[skip..]);
     while let Some(result) = lexer.next() {
         let range = lexer.span();
+        let range = range.start + skip..range.end + skip;
         match result {
             Ok(token) => tokens.push((range.start, token, range.end)),
             Err(error) => errors.push(describe_error(file, source, range, error)),
@@ -538,6 +554,21 @@ line""#),
         let e = lex_error(r#"s = "a\qb"; t = 1;"#);
         assert_eq!(e.message, r"unknown escape `\q` in string");
         assert_eq!((e.span.start, e.span.end), (6, 8));
+    }
+
+    #[test]
+    fn a_byte_order_mark_at_the_start_is_skipped() {
+        let (tokens, errors) = tokenize(FileId(0), "\u{feff}x = 1;");
+        assert!(errors.is_empty(), "{errors:?}");
+        // Offsets stay offsets into the file as read, mark included.
+        let spans: Vec<_> = tokens.iter().map(|(s, _, e)| (*s, *e)).collect();
+        assert_eq!(spans, vec![(3, 4), (5, 6), (7, 8), (8, 9)]);
+        let e = lex_error("\u{feff}x = @;");
+        assert_eq!((e.span.start, e.span.end), (7, 8));
+        // Anywhere else it is not whitespace.
+        let e = lex_error("x = 1;\u{feff}");
+        assert_eq!(e.message, "unknown character `\\u{feff}`");
+        assert_eq!((e.span.start, e.span.end), (6, 9));
     }
 
     #[test]

@@ -101,6 +101,7 @@ pub fn parse(file: FileId, source: &str) -> Result<Program, Vec<SyntaxError>> {
 pub fn is_incomplete(source: &str) -> bool {
     use logos::Logos;
     let mut open: Vec<Token<'_>> = Vec::new();
+    let source = &source[super::lexer::byte_order_mark_len(source)..];
     for token in Token::lexer(source) {
         match token {
             Ok(t) if t.is_opening_bracket() => open.push(t),
@@ -135,6 +136,7 @@ struct Brackets {
 /// `while`, `for`, `else`) whose bodies are still being read, which together bound how deep
 /// the parser's stack and the resulting tree can get. A head is pending until the statement
 /// it governs ends: at a `;` or `}` not followed by `else` (an `else` continues the chain).
+/// The `else if` of a chain is no new head: the chain is one statement in the tree.
 fn scan_brackets(file: FileId, tokens: &[Spanned<'_>]) -> Brackets {
     let mut open: Vec<(Token<'static>, usize)> = Vec::new();
     let mut unmatched = Vec::new();
@@ -147,6 +149,11 @@ fn scan_brackets(file: FileId, tokens: &[Spanned<'_>]) -> Brackets {
 
     for (i, (start, token, end)) in tokens.iter().enumerate() {
         let next_is_else = matches!(tokens.get(i + 1), Some((_, Token::Else, _)));
+        let next_is_if = matches!(tokens.get(i + 1), Some((_, Token::If, _)));
+        let previous_is_else = matches!(
+            i.checked_sub(1).and_then(|j| tokens.get(j)),
+            Some((_, Token::Else, _))
+        );
         let mut statement_ended = false;
         let mut deeper = None;
         match token {
@@ -181,6 +188,10 @@ fn scan_brackets(file: FileId, tokens: &[Spanned<'_>]) -> Brackets {
                     Some(_) => {}
                 }
             }
+            // An `else if` continues its chain (one statement in the tree) rather than
+            // nesting in it: neither word is a new head.
+            Token::Else if next_is_if => {}
+            Token::If if previous_is_else => {}
             Token::If | Token::While | Token::For | Token::Else if at_statement_level(&open) => {
                 if let Some(level) = heads.last_mut() {
                     *level += 1;
@@ -208,11 +219,11 @@ fn scan_brackets(file: FileId, tokens: &[Spanned<'_>]) -> Brackets {
             if pending >= open.len() {
                 message = "statements nested too deeply";
             }
-            let error =
-                SyntaxError::new(message, Span::new(file, *start, *end)).with_help(format!(
-                    "felt allows {MAX_NESTING} levels of nesting; \
-                         move inner parts into variables or functions"
-                ));
+            let error = SyntaxError::new(
+                format!("{message} (more than {MAX_NESTING} levels)"),
+                Span::new(file, *start, *end),
+            )
+            .with_help("move inner parts into variables or functions");
             return Brackets {
                 unclosed: open,
                 unmatched,
@@ -356,6 +367,12 @@ impl Context<'_, '_> {
                 Token::Else => Some("this `else` has no `if` to belong to".to_string()),
                 Token::Assign if !expected.starts_expression() => {
                     Some("to compare two values, use `==`".to_string())
+                }
+                Token::MinusMinus | Token::PlusPlus if expected.starts_expression() => {
+                    let sign = &text[..1];
+                    Some(format!(
+                        "`{text}` changes a variable by one; for two signs write `{sign} {sign}`"
+                    ))
                 }
                 _ => None,
             }

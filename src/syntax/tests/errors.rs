@@ -86,6 +86,25 @@ fn unbalanced_braces() {
 }
 
 #[test]
+fn a_doubled_sign_in_an_expression_is_the_decrement_operator() {
+    let help = check("x = --1;", "unexpected `--`, expected an expression", 1, 5);
+    assert_eq!(
+        help.as_deref(),
+        Some("`--` changes a variable by one; for two signs write `- -`")
+    );
+    let help = check(
+        "print(1 + ++y);",
+        "unexpected `++`, expected an expression",
+        1,
+        11,
+    );
+    assert_eq!(
+        help.as_deref(),
+        Some("`++` changes a variable by one; for two signs write `+ +`")
+    );
+}
+
+#[test]
 fn unexpected_tokens_are_named_by_their_text_and_expected_sets_are_summarised() {
     check("x = ;", "unexpected `;`, expected an expression", 1, 5);
     check(

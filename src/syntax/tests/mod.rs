@@ -115,18 +115,23 @@ fn render_stmt(s: &Stmt) -> String {
             )
         }
         StmtKind::If {
-            cond,
-            then_branch,
+            branches,
             else_branch,
-        } => match else_branch {
-            Some(e) => format!(
-                "(if {} {} else {})",
-                render_expr(cond),
-                render_block(then_branch),
-                render_stmt(e)
-            ),
-            None => format!("(if {} {})", render_expr(cond), render_block(then_branch)),
-        },
+        } => {
+            // Written as nested `if`s, the way the chain reads.
+            let mut text = else_branch.as_ref().map(render_block);
+            for (cond, block) in branches.iter().rev() {
+                text = Some(match text {
+                    Some(e) => format!(
+                        "(if {} {} else {e})",
+                        render_expr(cond),
+                        render_block(block)
+                    ),
+                    None => format!("(if {} {})", render_expr(cond), render_block(block)),
+                });
+            }
+            text.unwrap_or_default()
+        }
         StmtKind::For {
             init,
             cond,
@@ -183,8 +188,11 @@ fn render_expr(e: &Expr) -> String {
             };
             format!("({op} {})", render_expr(x))
         }
-        ExprKind::Binary(op, a, b) => {
-            format!("({} {} {})", op.symbol(), render_expr(a), render_expr(b))
+        // Written as the nested operations it folds, `(- (+ a b) c)` for `a + b - c`.
+        ExprKind::Binary(first, operations) => {
+            operations.iter().fold(render_expr(first), |acc, o| {
+                format!("({} {acc} {})", o.op.symbol(), render_expr(&o.operand))
+            })
         }
         ExprKind::Call { callee, args } if args.is_empty() => format!("({})", callee.name),
         ExprKind::Call { callee, args } => format!("({} {})", callee.name, render_args(args)),

@@ -183,52 +183,111 @@ fn mutated_scripts_never_panic() {
     }
 }
 
+fn too_deep(what: &str) -> String {
+    format!("{what} nested too deeply (more than {MAX_NESTING} levels)")
+}
+
 #[test]
 fn deep_brackets_are_refused_before_parsing() {
     with_small_stack(|| {
         let deep = format!("x = {}1{};", "(".repeat(10_000), ")".repeat(10_000));
         let e = parse(FileId(0), &deep).unwrap_err().remove(0);
-        assert_eq!(e.message, "expression nested too deeply");
+        assert_eq!(e.message, too_deep("expression"));
         // It points at the first bracket beyond the limit.
         assert_eq!(e.span.start as usize, 4 + MAX_NESTING);
-        assert_eq!(
-            first_message(&"{".repeat(10_000)),
-            "blocks nested too deeply"
-        );
-        assert_eq!(
-            first_message(&"a[".repeat(10_000)),
-            "expression nested too deeply"
-        );
+        assert_eq!(first_message(&"{".repeat(10_000)), too_deep("blocks"));
+        assert_eq!(first_message(&"a[".repeat(10_000)), too_deep("expression"));
     });
 }
 
 #[test]
-fn long_operator_chains_are_refused_without_deep_recursion() {
+fn long_operator_chains_are_flat_and_parse() {
     with_small_stack(|| {
-        for op in ["+", "*", "^", "&&", "<", "=="] {
+        for op in ["+", "-", "*", "/", "%", "&&", "||", "<", "==", "!="] {
             let chain = format!("x = a{};", format!(" {op} a").repeat(10_000));
+            let program = program(&chain);
+            let Item::Stmt(Stmt {
+                kind: StmtKind::Assign { value, .. },
+                ..
+            }) = &program.items[0]
+            else {
+                panic!("not an assignment")
+            };
+            // One node, not a tree 10,000 deep.
+            let ExprKind::Binary(first, operations) = &value.kind else {
+                panic!("{op}: not a chain")
+            };
             assert_eq!(
-                first_message(&chain),
-                "expression nested too deeply",
-                "{op}"
+                first.kind,
+                ExprKind::Var(Ident {
+                    name: "a".into(),
+                    span: first.span
+                })
             );
+            assert_eq!(operations.len(), 10_000, "{op}");
         }
-        let prefixes = format!("x = {}1;", "-!".repeat(5_000));
-        assert_eq!(first_message(&prefixes), "expression nested too deeply");
-        let calls = format!("x = {}1{};", "f(".repeat(300), ")".repeat(300));
-        assert_eq!(first_message(&calls), "expression nested too deeply");
+        // Operators of different precedence in one run: each operand is measured on its
+        // own, so a long sum of deep-ish products parses.
+        let mixed = format!(
+            "x = a{};",
+            format!(" + {}a * b", "-!".repeat(100)).repeat(2_000)
+        );
+        assert_eq!(first_message(&mixed), "parsed");
     });
 }
 
 #[test]
-fn long_statement_chains_are_refused() {
+fn real_expression_nesting_is_refused_without_deep_recursion() {
+    with_small_stack(|| {
+        // `^` is right-associative: each one nests.
+        let powers = format!("x = a{};", " ^ a".repeat(10_000));
+        assert_eq!(first_message(&powers), too_deep("expression"));
+        let prefixes = format!("x = {}1;", "-!".repeat(5_000));
+        assert_eq!(first_message(&prefixes), too_deep("expression"));
+        let calls = format!("x = {}1{};", "f(".repeat(300), ")".repeat(300));
+        assert_eq!(first_message(&calls), too_deep("expression"));
+        // A chain is one level, but an operand nested past the limit is still refused.
+        let deep_operand = format!("x = a + a + {}a + a;", "-!".repeat(MAX_NESTING / 2));
+        assert_eq!(first_message(&deep_operand), too_deep("expression"));
+        let operand_inside = format!("x = a + a + {}a + a;", "-!".repeat(MAX_NESTING / 2 - 1));
+        assert_eq!(first_message(&operand_inside), "parsed");
+    });
+}
+
+#[test]
+fn long_statement_chains() {
     with_small_stack(|| {
         let ifs = format!("{}x = 1;", "if (a) ".repeat(10_000));
-        assert_eq!(first_message(&ifs), "statements nested too deeply");
-        let chain = format!("if (a) x; {}", "else if (a) x; ".repeat(10_000));
-        assert_eq!(first_message(&chain), "statements nested too deeply");
+        assert_eq!(first_message(&ifs), too_deep("statements"));
         let loops = format!("{}{{}}", "while (a) for (;;) ".repeat(5_000));
-        assert_eq!(first_message(&loops), "statements nested too deeply");
+        assert_eq!(first_message(&loops), too_deep("statements"));
+        // An `else if` chain is one statement, however long.
+        for tail in ["", "else x;", "else { x; }"] {
+            let chain = format!("if (a) x; {}{tail}", "else if (a) x; ".repeat(10_000));
+            let program = program(&chain);
+            let Item::Stmt(Stmt {
+                kind:
+                    StmtKind::If {
+                        branches,
+                        else_branch,
+                    },
+                ..
+            }) = &program.items[0]
+            else {
+                panic!("not an if")
+            };
+            assert_eq!(branches.len(), 10_001);
+            assert_eq!(else_branch.is_some(), !tail.is_empty());
+        }
+        let braced = format!("if (a) {{ x; }} {}", "else if (a) { x; } ".repeat(10_000));
+        assert_eq!(first_message(&braced), "parsed");
+        // Nested inside the chain's last branch, bare bodies still count.
+        let inner = format!(
+            "if (a) x; {}else {}x;",
+            "else if (a) x; ".repeat(1_000),
+            "if (a) ".repeat(MAX_NESTING + 1)
+        );
+        assert_eq!(first_message(&inner), too_deep("statements"));
     });
 }
 

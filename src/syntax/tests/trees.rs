@@ -336,9 +336,10 @@ fn statement_and_node_spans() {
         &source[s.span.start as usize..s.span.end as usize],
         "if (a) b = 1;"
     );
-    let StmtKind::If { then_branch, .. } = &s.kind else {
+    let StmtKind::If { branches, .. } = &s.kind else {
         panic!()
     };
+    let then_branch = &branches[0].1;
     assert_eq!(
         &source[then_branch.span.start as usize..then_branch.span.end as usize],
         "b = 1;"
