@@ -145,6 +145,49 @@ fn diagnostics_on_very_long_lines_keep_their_place() {
     }
 }
 
+/// Scripts that used to hang or panic the command: 20,000 unknown names (rendering every
+/// diagnostic scanned the file from its start: quadratic) and runs of 100,000 signs (miette
+/// panicked on the label far along the line). Each is a prompt, clean diagnostic.
+#[test]
+fn pathological_scripts_give_prompt_diagnostics() {
+    let dir = tempfile::tempdir().unwrap();
+    let unknown: String = (0..20_000)
+        .map(|i| format!("print(unknown{i});\n"))
+        .collect();
+    let cases = [
+        ("unknown.felt", unknown, "… and 19900 more errors"),
+        (
+            "signs.felt",
+            format!("print({}1);\n", "-".repeat(100_000)),
+            "unexpected `--`, expected an expression",
+        ),
+        (
+            "nested.felt",
+            format!("print({}1{});\n", "-(".repeat(100_000), ")".repeat(100_000)),
+            "expression nested too deeply (more than 256 levels)",
+        ),
+    ];
+    for (name, script, message) in cases {
+        let path = dir.path().join(name);
+        std::fs::write(&path, script).unwrap();
+        let path = path.to_str().unwrap();
+        for command in ["check", "run"] {
+            let out = felt_within(&[command, path], Duration::from_secs(30));
+            let stderr = String::from_utf8_lossy(&out.stderr);
+            assert_eq!(
+                out.status.code(),
+                Some(1),
+                "felt {command} {name}: {stderr}"
+            );
+            assert!(stderr.contains(message), "felt {command} {name}: {stderr}");
+            assert!(
+                stderr.lines().all(|line| line.chars().count() < 400),
+                "felt {command} {name}: a long line was not cut"
+            );
+        }
+    }
+}
+
 #[test]
 fn thread_counts_are_checked_before_the_pool_starts() {
     let absurd = felt()

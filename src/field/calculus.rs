@@ -1,10 +1,10 @@
-//! Symbolic differentiation and substitution over scalar node graphs.
+//! Symbolic differentiation over scalar node graphs.
 //!
 //! `derivatives` builds, for a set of roots, the nodes of their partial derivatives along x, y
 //! and z, by forward-mode rules applied to every reachable node once (children first, so the
-//! chain rule through a substituted warp falls out of the same rules). `substitute` replaces
-//! the position leaves by other nodes, which is how `compose`, `advect` and the warps are made:
-//! the composed field is an ordinary graph, so differentiating it again is exact too.
+//! chain rule through a substituted warp falls out of the same rules). Substitution itself
+//! (`compose`, `advect`, the warps) is in `substitution`: the composed field is an ordinary
+//! graph, so differentiating it again is exact too.
 //!
 //! Two decisions: where a derivative has a removable 0/0 (the gradient of `sqrt(u)` where `u`
 //! and its derivative vanish together, as for `|x|` at the origin), the rule uses the guarded
@@ -308,28 +308,6 @@ fn shifted_kernel(kernel: &Kernel, args: &[NodeRef], axis: usize, offset: f64) -
         _ => node::add(arg.clone(), node::constant(offset)),
     };
     node::mk(Op::Kernel(kernel.clone(), moved))
-}
-
-/// `roots` with the position leaves x, y, z replaced by `at[0..3]`.
-pub fn substitute(roots: &[NodeRef], at: &[NodeRef; 3]) -> Vec<NodeRef> {
-    let order = node::postorder(roots);
-    let mut map: HashMap<u64, NodeRef> = HashMap::with_capacity(order.len());
-    for n in &order {
-        let get = |c: &NodeRef| map[&c.id].clone();
-        let new = match &n.op {
-            Op::Const(_) => n.clone(),
-            Op::X => at[0].clone(),
-            Op::Y => at[1].clone(),
-            Op::Z => at[2].clone(),
-            Op::Unary(m, a) => node::unary(*m, get(a)),
-            Op::Binary(b, x, y) => node::binary(*b, get(x), get(y)),
-            Op::Select(c, a, b) => node::select(get(c), get(a), get(b)),
-            Op::Kernel(k, args) => node::mk(Op::Kernel(k.clone(), args.iter().map(get).collect())),
-            Op::Output(k, i) => node::output_of(&get(k), *i as usize),
-        };
-        map.insert(n.id, new);
-    }
-    roots.iter().map(|r| map[&r.id].clone()).collect()
 }
 
 /// The position nodes shifted by a constant vector: `x - offset`.

@@ -25,6 +25,7 @@ pub mod node;
 pub mod noise;
 pub mod program;
 mod sampler;
+mod substitution;
 #[cfg(test)]
 mod tests;
 
@@ -453,7 +454,7 @@ impl Field {
         let p: [NodeRef; 3] = std::array::from_fn(|i| p[i].clone());
         Ok(Field::new(
             self.kind,
-            calculus::substitute(&self.components, &p),
+            substitution::substitute(&self.components, &p),
         ))
     }
 }

@@ -430,3 +430,37 @@ fn every_output_is_emitted_once_with_its_final_value() {
     assert_eq!(seen[2].as_ref().unwrap()[0], length);
     assert_eq!(seen[3].as_ref().unwrap()[0], 0.3 / length);
 }
+
+/// A chain of advections is built in time linear in its length: each step substitutes the
+/// back trace only into the layer the step before added (it used to walk the whole graph, so
+/// 5,000 RK4 steps never finished building). The velocity is built from temporaries, as a
+/// script builds it, so the position's z node is dropped and made again between steps.
+#[test]
+fn each_step_of_an_advection_chain_costs_the_same() {
+    let velocity = || {
+        Field::vector_from(
+            &Field::identity().component(1).unwrap().neg(),
+            &Field::identity().component(0).unwrap(),
+            &s(0.0),
+        )
+        .unwrap()
+    };
+    let mut f = Field::identity().component(0).unwrap();
+    let steps = 2_000;
+    let mut costs = Vec::with_capacity(steps);
+    for _ in 0..steps {
+        let before = substitution::visits();
+        f = advect(&f, &velocity(), &s(0.001), 4).unwrap();
+        costs.push(substitution::visits() - before);
+    }
+    // About 30 nodes a step; a step that walked the graph would cost 30 per step so far. A
+    // sweep of the shared hash-consing table (by any test) can make one step walk it all.
+    let walked = costs.iter().filter(|&&c| c > 100).count();
+    assert!(walked <= 5, "{walked} steps walked the graph: {costs:?}");
+    let graph = node::postorder(f.components()).len();
+    assert!(graph < 40 * steps, "{graph} nodes");
+    // Rotation by 2 radians about z: the back-traced x of (0.1, 0.2, 0).
+    let (angle, p) = (2.0f64, DVec3::new(0.1, 0.2, 0.0));
+    let expected = p.x * angle.cos() + p.y * angle.sin();
+    assert!((scalar_at(&f, p) - expected).abs() < 1e-9);
+}

@@ -3,10 +3,14 @@
 //!
 //! The one key decision: the table holds weak references, keyed by the operation and its
 //! children's ids, so it never keeps a graph alive; dead entries are swept out when the table
-//! has doubled since the last sweep.
+//! has doubled since the last sweep. Until then an entry also keeps its node's id, and a node
+//! that was dropped and is made again gets that id back: ids name structures, not
+//! allocations, so what is remembered by id (substitution's memo) survives a graph that a
+//! script drops and rebuilds every step, such as a back trace whose z component nothing kept.
 
 use super::{Node, NodeRef, Op};
 use std::collections::HashMap;
+use std::collections::hash_map::Entry::{Occupied, Vacant};
 use std::hash::{Hash, Hasher};
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, LazyLock, Mutex, Weak};
@@ -53,8 +57,14 @@ fn hash_of<T: Hash>(t: &T) -> u64 {
     h.finish()
 }
 
+/// A node made through the table, and its id, kept after the node is dropped.
+struct Entry {
+    id: u64,
+    node: Weak<Node>,
+}
+
 struct Table {
-    nodes: HashMap<Key, Weak<Node>>,
+    nodes: HashMap<Key, Entry>,
     /// Size at which dead entries are next swept out.
     sweep_at: usize,
 }
@@ -82,16 +92,32 @@ pub(super) fn intern(op: Op) -> NodeRef {
     // A poisoned table only means another thread panicked while holding it; the map itself is
     // still consistent (entries are inserted whole), so keep using it.
     let mut table = TABLE.lock().unwrap_or_else(|e| e.into_inner());
-    if let Some(node) = table.nodes.get(&key).and_then(Weak::upgrade) {
-        return node;
-    }
-    let node = Arc::new(Node {
-        id: NEXT_ID.fetch_add(1, Ordering::Relaxed),
-        op,
-    });
-    table.nodes.insert(key, Arc::downgrade(&node));
+    let node = match table.nodes.entry(key) {
+        Occupied(mut entry) => {
+            if let Some(node) = entry.get().node.upgrade() {
+                return node;
+            }
+            let node = Arc::new(Node {
+                id: entry.get().id,
+                op,
+            });
+            entry.get_mut().node = Arc::downgrade(&node);
+            node
+        }
+        Vacant(entry) => {
+            let node = Arc::new(Node {
+                id: NEXT_ID.fetch_add(1, Ordering::Relaxed),
+                op,
+            });
+            entry.insert(Entry {
+                id: node.id,
+                node: Arc::downgrade(&node),
+            });
+            node
+        }
+    };
     if table.nodes.len() >= table.sweep_at {
-        table.nodes.retain(|_, w| w.strong_count() > 0);
+        table.nodes.retain(|_, entry| entry.node.strong_count() > 0);
         table.sweep_at = (table.nodes.len() * 2).max(1 << 16);
     }
     LENGTH.store(table.nodes.len(), Ordering::Relaxed);
