@@ -79,12 +79,13 @@ static NEXT_ID: AtomicU64 = AtomicU64::new(1);
 /// `TABLE`'s length, readable without its lock (for the memory budget's frequent checks).
 static LENGTH: AtomicUsize = AtomicUsize::new(0);
 
-/// What one node costs in memory with its table entry: the node, its `Arc` counts, the key
-/// and the map's own slot.
+/// What one node costs in memory with its table entry: the node and its `Arc` counts, the
+/// key, the entry and the map's own slot.
 const NODE_BYTES: usize = std::mem::size_of::<Node>()
-    + std::mem::size_of::<Key>()
     + 2 * std::mem::size_of::<usize>()
-    + 32;
+    + std::mem::size_of::<Key>()
+    + std::mem::size_of::<Entry>()
+    + 16;
 
 /// The unique node for `op`, made if it does not exist yet. No simplification.
 pub(super) fn intern(op: Op) -> NodeRef {
@@ -135,7 +136,7 @@ pub fn check_graph_memory() -> crate::failure::Outcome<()> {
     }
     let live = {
         let mut table = TABLE.lock().unwrap_or_else(|e| e.into_inner());
-        table.nodes.retain(|_, w| w.strong_count() > 0);
+        table.nodes.retain(|_, entry| entry.node.strong_count() > 0);
         LENGTH.store(table.nodes.len(), Ordering::Relaxed);
         table.nodes.len()
     };
