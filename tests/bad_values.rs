@@ -1,0 +1,121 @@
+//! Values that used to go wrong without a word, through scripts: NaN, infinite and negative
+//! render inputs, noise and domains whose numbers overflow, far cameras, NaN grids on load,
+//! files whose content is not what their name says, and an empty grid name.
+
+mod common;
+
+/// The text after `key` in `text` up to the next space, as a count written `1,234`.
+fn count_after(text: &str, key: &str) -> u64 {
+    let at = text
+        .find(key)
+        .unwrap_or_else(|| panic!("no '{key}' in {text}"))
+        + key.len();
+    text[at..]
+        .split(' ')
+        .next()
+        .unwrap()
+        .replace(',', "")
+        .parse()
+        .unwrap_or_else(|_| panic!("no count after '{key}' in {text}"))
+}
+
+/// Every diagnostic's message and help, one line each (the rendered text wraps long lines).
+fn all_text(outcome: &common::Outcome) -> String {
+    let mut text = String::new();
+    for d in &outcome.diagnostics {
+        text += &d.message;
+        text += "\n";
+        if let Some(help) = &d.help {
+            text += help;
+            text += "\n";
+        }
+    }
+    text
+}
+
+fn warnings_of(outcome: &common::Outcome) -> Vec<String> {
+    outcome
+        .diagnostics
+        .iter()
+        .filter(|d| !d.is_error())
+        .map(|d| d.message.clone())
+        .collect()
+}
+
+#[test]
+fn render_warns_once_per_input_with_counts_and_the_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = (dir.path().join("a.exr"), dir.path().join("b.exr"));
+    // sqrt is NaN on the left half (x < 0) of the box; the emission is the position, negative
+    // in the left, lower and far parts.
+    let outcome = common::run_source(
+        "render.felt",
+        &format!(
+            r#"
+            scalarfield rho = sqrt(identity() * (1, 0, 0));
+            domain box((-1, -1, -1), (2, 2, 2), (0, 0, 0));
+            camera cam = camera((0, 0, 4), (0, 0, 0), (0, 1, 0), 40, 1, 2);
+            render("{}", density = rho, emission = identity(), camera = cam, bounds = box, width = 24, height = 24, step = 0.05);
+            render("{}", density = rho, camera = cam, bounds = box, width = 24, height = 24, step = 0.05);
+            "#,
+            a.display(),
+            b.display()
+        ),
+    );
+    assert!(outcome.ok, "{}", outcome.rendered);
+    let warnings = warnings_of(&outcome);
+    let density: Vec<&String> = warnings
+        .iter()
+        .filter(|w| w.starts_with("render: density was NaN or infinite at "))
+        .collect();
+    assert_eq!(density.len(), 2, "{warnings:?}");
+    for w in &density {
+        assert!(
+            w.contains("samples (treated as 0: empty), the first at ("),
+            "{w}"
+        );
+        // The left half of an orthographic view of the box: half the samples, to a ray.
+        let (bad, all) = (count_after(w, "infinite at "), count_after(w, " of "));
+        let share = bad as f64 / all as f64;
+        assert!((0.45..0.55).contains(&share), "{w}");
+    }
+    let emission: Vec<&String> = warnings
+        .iter()
+        .filter(|w| w.starts_with("render: emission was negative at "))
+        .collect();
+    assert_eq!(emission.len(), 1, "{warnings:?}");
+    assert!(
+        emission[0].ends_with("samples (clamped to 0)"),
+        "{}",
+        emission[0]
+    );
+    assert_eq!(warnings.len(), 3, "{warnings:?}");
+    // Each warning points at its own render call.
+    assert!(
+        outcome.rendered.contains("render.felt:5:"),
+        "{}",
+        outcome.rendered
+    );
+    assert!(
+        outcome.rendered.contains("render.felt:6:"),
+        "{}",
+        outcome.rendered
+    );
+    assert!(all_text(&outcome).contains("guard it with select or max"));
+    // The images hold no NaN and no negative value.
+    for path in [&a, &b] {
+        let image = exr::prelude::read_first_rgba_layer_from_file(
+            path,
+            |size, _| vec![[0f32; 4]; size.width() * size.height()],
+            |pixels, at, (r, g, b, a): (f32, f32, f32, f32)| {
+                pixels[at.y() * 24 + at.x()] = [r, g, b, a];
+            },
+        )
+        .unwrap();
+        let pixels = image.layer_data.channel_data.pixels;
+        assert!(pixels.iter().flatten().all(|v| v.is_finite() && *v >= 0.0));
+        // The right half is there, the left (NaN density) is empty.
+        assert_eq!(pixels[12 * 24 + 2][3], 0.0);
+        assert!(pixels[12 * 24 + 21][3] > 0.1);
+    }
+}
