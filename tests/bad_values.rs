@@ -119,3 +119,23 @@ fn render_warns_once_per_input_with_counts_and_the_line() {
         assert!(pixels[12 * 24 + 21][3] > 0.1);
     }
 }
+
+#[test]
+fn noise_correlations_that_overflow_are_refused() {
+    let outcome = common::run_source(
+        "noise.felt",
+        r#"
+        domain d((0, 0, 0), (1, 1, 1), (0, 0, 0), 0.125);
+        scalarfield n = gaussiannoise(d, 1e308);
+        print(probe(n, (0.5, 0.5, 0.5)));
+        "#,
+    );
+    assert!(!outcome.ok);
+    assert!(
+        all_text(&outcome).contains(
+            "gaussiannoise correlation must be a length above 0 and at most 1e150, got 1e308"
+        ) && outcome.rendered.contains("noise.felt:3:"),
+        "{}",
+        outcome.rendered
+    );
+}
