@@ -139,3 +139,53 @@ fn noise_correlations_that_overflow_are_refused() {
         outcome.rendered
     );
 }
+
+#[test]
+fn domains_whose_rotation_overflows_are_refused_and_stats_warns_of_nan() {
+    let spun = common::run_source(
+        "domain.felt",
+        r#"
+        domain d((0, 0, 0), (1, 1, 1), (1e155, 1e155, 1e155), 0.1);
+        print(stats(scalarfield(1.0), d));
+        "#,
+    );
+    assert!(!spun.ok);
+    assert!(
+        all_text(&spun).contains(
+            "domain orientation (1e155, 1e155, 1e155) turns by 1.7320508075688772e155 radians"
+        ) && spun.rendered.contains("domain.felt:2:"),
+        "{}",
+        spun.rendered
+    );
+    // The field is NaN for x < 0.25: 2 of the 8 columns of 8 x 8 cells.
+    let partly = common::run_source(
+        "stats.felt",
+        r#"
+        domain d((0, 0, 0), (1, 1, 1), (0, 0, 0), 0.125);
+        print(stats(sqrt(identity() * (1, 0, 0) - 0.25) + 1, d));
+        domain none((-1, 0, 0), (1, 1, 1), (0, 0, 0), 0.125);
+        print(stats(sqrt(identity() * (1, 0, 0)), none));
+        "#,
+    );
+    assert!(partly.ok, "{}", partly.rendered);
+    let lines: Vec<&str> = partly.output.lines().collect();
+    let v = common::numbers(lines[0]);
+    // min over the finite cells x = 0.3125 .. 0.9375, mean of sqrt(x - 0.25) + 1 over them.
+    let xs: Vec<f64> = (2..8).map(|i| (i as f64 + 0.5) * 0.125).collect();
+    let mean = xs.iter().map(|x| (x - 0.25).sqrt() + 1.0).sum::<f64>() / 6.0;
+    assert!((v[0] - ((0.0625f64).sqrt() + 1.0)).abs() < 1e-12, "{v:?}");
+    assert!((v[1] - ((0.6875f64).sqrt() + 1.0)).abs() < 1e-12, "{v:?}");
+    assert!((v[2] - mean).abs() < 1e-12, "{v:?} vs {mean}");
+    assert_eq!(lines[1], "(NaN, NaN, NaN)");
+    assert_eq!(
+        warnings_of(&partly),
+        vec![
+            "stats: the field was NaN or infinite at 128 of 512 cells; min, max and mean are of \
+             the other 384 cells"
+                .to_string(),
+            "stats: the field was NaN or infinite at 512 of 512 cells; no value is finite, so \
+             min, max and mean are NaN"
+                .to_string(),
+        ]
+    );
+}
