@@ -51,7 +51,7 @@ fn physical_memory() -> Option<u64> {
     Some(kib * 1024)
 }
 
-fn human_bytes(bytes: f64) -> String {
+pub fn human_bytes(bytes: f64) -> String {
     const UNITS: [&str; 5] = ["B", "KiB", "MiB", "GiB", "TiB"];
     let mut value = bytes;
     let mut unit = 0;

@@ -146,8 +146,8 @@ pub fn register(r: &mut Registry) {
             "cacheload(string path, string grid) -> scalarfield",
         ],
         "reads a float grid of an OpenVDB file as a field (linear interpolation, background outside)",
-        |_, a| {
-            let cache = vdb_cache::load(Path::new(a.string(0)?), a.string(1)?, 1)?;
+        |interp, a| {
+            let cache = load_checked(interp, &a, 1)?;
             let grid: Arc<dyn GridSource> = Arc::new(cache);
             Ok(Value::Field(Field::from_grid(grid, Interp::Linear, GridDerivative::Interpolant)?))
         },
@@ -156,8 +156,8 @@ pub fn register(r: &mut Registry) {
         "caches",
         &["cacheloadvector(string path, string grid) -> vectorfield"],
         "reads a vector grid of an OpenVDB file as a field",
-        |_, a| {
-            let cache = vdb_cache::load(Path::new(a.string(0)?), a.string(1)?, 3)?;
+        |interp, a| {
+            let cache = load_checked(interp, &a, 3)?;
             let grid: Arc<dyn GridSource> = Arc::new(cache);
             Ok(Value::Field(Field::from_grid(
                 grid,
@@ -166,6 +166,21 @@ pub fn register(r: &mut Registry) {
             )?))
         },
     );
+}
+
+/// `cacheload`'s grid as a cache, with a warning when it holds NaN or infinite values.
+fn load_checked(interp: &mut Interpreter, a: &Args, width: usize) -> Outcome<Cache> {
+    let (path, name) = (Path::new(a.string(0)?), a.string(1)?);
+    let (cache, check) = vdb_cache::load(path, name, width)?;
+    if let Some(message) = check.warning(path, name) {
+        interp.warnings.push(
+            Diagnostic::warning(Stage::Runtime, interp.call_span, message).with_help(
+                "reading those voxels gives NaN; a render treats them as empty, other uses \
+                 pass them on",
+            ),
+        );
+    }
+    Ok(cache)
 }
 
 fn new_cache(a: &Args, shape: Shape, background: Vec<f64>) -> Outcome<Value> {
