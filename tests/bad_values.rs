@@ -189,3 +189,59 @@ fn domains_whose_rotation_overflows_are_refused_and_stats_warns_of_nan() {
         ]
     );
 }
+
+#[test]
+fn nan_grids_warn_on_load_and_empty_grid_names_are_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let vdb = dir.path().join("h1.vdb");
+    let outcome = common::run_source(
+        "vdb.felt",
+        &format!(
+            r#"
+            domain d((0, 0, 0), (1, 1, 1), (0, 0, 0), 0.125);
+            scalarcache c(d);
+            cachewrite(c, sqrt(identity() * (1, 0, 0) - 0.5));
+            cachesave(c, "{0}");
+            scalarfield back = cacheload("{0}", "density");
+            print(probe(back, (0.75, 0.5, 0.5)));
+            "#,
+            vdb.display()
+        ),
+    );
+    assert!(outcome.ok, "{}", outcome.rendered);
+    let warnings = warnings_of(&outcome);
+    let load = format!(
+        "cacheload: grid 'density' of {} is NaN or infinite at 256 of its 512 voxels",
+        vdb.display()
+    );
+    assert!(warnings.contains(&load), "{warnings:?}");
+    assert!(
+        outcome.rendered.contains("vdb.felt:6:"),
+        "{}",
+        outcome.rendered
+    );
+
+    let hashed = dir.path().join("h2.vdb#");
+    let outcome = common::run_source(
+        "vdb.felt",
+        &format!(
+            r#"
+            domain d((0, 0, 0), (1, 1, 1), (0, 0, 0), 0.25);
+            scalarcache c(d);
+            cachewrite(c, scalarfield(1.0));
+            cachesave(c, "{}");
+            "#,
+            hashed.display()
+        ),
+    );
+    assert!(!outcome.ok);
+    assert!(
+        all_text(&outcome).contains(&format!(
+            "the grid name after '#' in \"{}\" is empty",
+            hashed.display()
+        )),
+        "{}",
+        outcome.rendered
+    );
+    assert!(!hashed.exists() && !dir.path().join("h2.vdb").exists());
+}

@@ -133,7 +133,7 @@ pub fn register(r: &mut Registry) {
         "writes c to an OpenVDB file (grid named \"density\" or \"vel\", or the name after '#': \"a.vdb#temperature\")",
         |interp, a| {
             let cache = written(&a)?;
-            let (path, name) = split_grid_name(a.string(1)?);
+            let (path, name) = split_grid_name(a.string(1)?)?;
             let name = name.unwrap_or(if cache.width() == 1 { "density" } else { "vel" });
             vdb_cache::save(&cache, Path::new(path), name)?;
             report_now(interp, &cache);
@@ -329,11 +329,18 @@ fn constant_of(shape: Shape, background: &[f64]) -> Field {
     }
 }
 
-/// `"a.vdb#name"` → (`"a.vdb"`, `Some("name")`).
-fn split_grid_name(path: &str) -> (&str, Option<&str>) {
+/// `"a.vdb#name"` → (`"a.vdb"`, `Some("name")`); `"a.vdb#"`, with nothing after the `#`, is an
+/// error rather than a file called `a.vdb#`.
+fn split_grid_name(path: &str) -> Outcome<(&str, Option<&str>)> {
     match path.rsplit_once('#') {
-        Some((file, name)) if !name.is_empty() => (file, Some(name)),
-        _ => (path, None),
+        Some((file, "")) => Err(Failure::new(format!(
+            "the grid name after '#' in \"{path}\" is empty"
+        ))
+        .with_help(format!(
+            "name the grid (\"{file}#density\") or leave out the '#' for the default name"
+        ))),
+        Some((file, name)) => Ok((file, Some(name))),
+        None => Ok((path, None)),
     }
 }
 
