@@ -4,6 +4,8 @@
 
 mod common;
 
+use std::path::Path;
+
 /// The text after `key` in `text` up to the next space, as a count written `1,234`.
 fn count_after(text: &str, key: &str) -> u64 {
     let at = text
@@ -244,4 +246,52 @@ fn nan_grids_warn_on_load_and_empty_grid_names_are_errors() {
         outcome.rendered
     );
     assert!(!hashed.exists() && !dir.path().join("h2.vdb").exists());
+}
+
+#[test]
+fn a_vdb_file_named_as_a_mesh_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let vdb = dir.path().join("h1.vdb");
+    let run = |body: String| common::run_source("shape.felt", &body);
+    let saved = run(format!(
+        r#"
+        domain d((0, 0, 0), (1, 1, 1), (0, 0, 0), 0.25);
+        scalarcache c(d);
+        cachewrite(c, scalarfield(1.0));
+        cachesave(c, "{}");
+        "#,
+        vdb.display()
+    ));
+    assert!(saved.ok, "{}", saved.rendered);
+    for name in ["h1.obj", "h1.ply"] {
+        let renamed = dir.path().join(name);
+        std::fs::copy(&vdb, &renamed).unwrap();
+        let outcome = run(format!("shape s = loadshape(\"{}\");\n", renamed.display()));
+        assert!(!outcome.ok, "{}", outcome.rendered);
+        let kind = if name.ends_with("obj") {
+            "an OBJ"
+        } else {
+            "a PLY"
+        };
+        assert!(
+            all_text(&outcome).contains(&format!("this is a VDB file, not {kind} mesh")),
+            "{}",
+            outcome.rendered
+        );
+    }
+    // And a mesh named as a VDB file says what it is.
+    let mesh = dir.path().join("box.vdb");
+    std::fs::write(&mesh, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let outcome = run(format!(
+        "scalarfield f = cacheload(\"{}\", \"density\");\n",
+        mesh.display()
+    ));
+    assert!(
+        all_text(&outcome).contains(
+            "not an OpenVDB file: it does not start with the VDB magic number (it is a text file)"
+        ),
+        "{}",
+        outcome.rendered
+    );
+    assert!(Path::new(&mesh).exists());
 }
