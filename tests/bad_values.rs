@@ -193,6 +193,59 @@ fn domains_whose_rotation_overflows_are_refused_and_stats_warns_of_nan() {
 }
 
 #[test]
+fn far_cameras_say_what_is_wrong() {
+    let dir = tempfile::tempdir().unwrap();
+    let image = dir.path().join("far.exr");
+    let script = |eye: &str| {
+        common::run_source(
+            "camera.felt",
+            &format!(
+                r#"
+                camera cam = camera({eye}, (0, 0, 0), (0, 1, 0), 40);
+                render("{}", density = mask(0.5 - length(identity())), camera = cam,
+                       width = 4, height = 4);
+                "#,
+                image.display()
+            ),
+        )
+    };
+    // 1e300 away is not "the same point": the camera is fine, the render cannot resolve steps.
+    let far = script("(1e300, 1e300, 1e300)");
+    assert!(!far.ok);
+    assert!(!far.rendered.contains("same point"), "{}", far.rendered);
+    assert!(
+        all_text(&far).contains(
+            "the camera eye (1e300, 1e300, 1e300) is so far from the render box that positions \
+             along its rays are only accurate to"
+        ) && far.rendered.contains("camera.felt:3:"),
+        "{}",
+        far.rendered
+    );
+    let overflow = common::run_source(
+        "camera.felt",
+        "camera cam = camera((1e308, 0, 0), (-1e308, 0, 0), (0, 1, 0), 40);\n",
+    );
+    assert!(
+        all_text(&overflow).contains(
+            "camera eye (1e308, 0.0, 0.0) is too far from lookat (-1e308, 0.0, 0.0): the \
+             distance between them is beyond the range of floating-point numbers"
+        ),
+        "{}",
+        overflow.rendered
+    );
+    let same = common::run_source(
+        "camera.felt",
+        "camera cam = camera((1, 2, 3), (1, 2, 3), (0, 1, 0), 40);\n",
+    );
+    assert!(all_text(&same).contains("camera eye and lookat are the same point"));
+    assert!(!image.exists());
+    // An ordinary far eye still renders.
+    let ok = script("(0, 0, 1e6)");
+    assert!(ok.ok, "{}", ok.rendered);
+    assert!(image.exists());
+}
+
+#[test]
 fn nan_grids_warn_on_load_and_empty_grid_names_are_errors() {
     let dir = tempfile::tempdir().unwrap();
     let vdb = dir.path().join("h1.vdb");

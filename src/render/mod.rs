@@ -187,6 +187,15 @@ pub fn render_with_stats(
         ))
         .with_help("use a larger step (it is a world-space length) or a smaller bounds box"));
     }
+    let precision = scene.camera.precision_over(&bounds);
+    if precision > 0.1 * smallest {
+        return Err(Failure::new(format!(
+            "the camera eye {} is so far from the render box that positions along its rays are \
+             only accurate to {precision:e}, too coarse for a step of {smallest}",
+            vector_text(scene.camera.eye)
+        ))
+        .with_help("move the camera nearer the box (a smaller fov keeps the framing)"));
+    }
     let aov_names = aov_names(settings, scene.lights.len());
     let pixels = settings.width as f64 * settings.height as f64;
     let bytes = pixels * (16.0 + 4.0 * aov_names.len() as f64);
