@@ -3,7 +3,8 @@
 //! Only regular files are read, and the kind is looked at before the file is opened: opening a
 //! FIFO blocks until something writes to it, and a device such as `/dev/zero` never ends. The
 //! size is checked against a cap before reading, and the read itself is capped too, since a
-//! file may grow after its size was looked at.
+//! file may grow after its size was looked at. Readers check what they were given against its
+//! name with `sniff`, so a VDB file renamed `.obj` is reported as one, not read as nothing.
 
 use std::io::Read;
 use std::path::Path;
@@ -46,6 +47,66 @@ fn size(limit: u64) -> String {
         format!("{value} {}", UNITS[unit])
     } else {
         format!("{value:.1} {}", UNITS[unit])
+    }
+}
+
+/// What a file's first bytes say it holds, for the formats felt reads or writes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Content {
+    Vdb,
+    Ply,
+    Png,
+    Exr,
+    /// Anything that reads as text (a script, an OBJ mesh).
+    Text,
+    /// Bytes that are not text: a NUL byte, or invalid UTF-8, near the start.
+    Binary,
+}
+
+impl Content {
+    /// "a VDB file", "a PLY mesh", … for messages.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Content::Vdb => "a VDB file",
+            Content::Ply => "a PLY mesh",
+            Content::Png => "a PNG image",
+            Content::Exr => "an OpenEXR image",
+            Content::Text => "a text file",
+            Content::Binary => "a binary file",
+        }
+    }
+}
+
+/// The VDB magic number, an `i64` written little endian.
+pub const VDB_MAGIC: [u8; 8] = [0x20, 0x42, 0x44, 0x56, 0, 0, 0, 0];
+
+/// Bytes looked at to tell text from binary.
+const SNIFF_BYTES: usize = 8192;
+
+/// What `bytes` (the start of a file, or all of it) hold, by their magic numbers, else by
+/// whether they read as text.
+pub fn sniff(bytes: &[u8]) -> Content {
+    let first_line = bytes.split(|&b| b == b'\n').next().unwrap_or(bytes);
+    if bytes.starts_with(&VDB_MAGIC) {
+        Content::Vdb
+    } else if first_line.trim_ascii() == b"ply" {
+        Content::Ply
+    } else if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
+        Content::Png
+    } else if bytes.starts_with(&[0x76, 0x2f, 0x31, 0x01]) {
+        Content::Exr
+    } else {
+        let head = &bytes[..bytes.len().min(SNIFF_BYTES)];
+        let text = match std::str::from_utf8(head) {
+            Ok(_) => true,
+            // A character cut off by the end of the sample is still text.
+            Err(e) => e.error_len().is_none() && head.len() == SNIFF_BYTES,
+        };
+        if text && !head.contains(&0) {
+            Content::Text
+        } else {
+            Content::Binary
+        }
     }
 }
 
@@ -95,5 +156,23 @@ mod tests {
             "it is larger than 2 KiB, the most a script may be"
         );
         assert_eq!(read_whole(&big, 3000, "a script").unwrap().len(), 3000);
+    }
+
+    #[test]
+    fn sniffing_tells_formats_by_their_first_bytes() {
+        let mut vdb = VDB_MAGIC.to_vec();
+        vdb.extend_from_slice(&[224, 0, 0, 0, b'\n', 0xff]);
+        assert_eq!(sniff(&vdb), Content::Vdb);
+        assert_eq!(sniff(b"ply\r\nformat ascii 1.0\n"), Content::Ply);
+        assert_eq!(sniff(b"\x89PNG\r\n\x1a\n\0\0"), Content::Png);
+        assert_eq!(sniff(&[0x76, 0x2f, 0x31, 0x01, 2, 0]), Content::Exr);
+        assert_eq!(sniff(b"# a mesh\nv 0 0 0\n"), Content::Text);
+        assert_eq!(sniff(b""), Content::Text);
+        assert_eq!(sniff(b"v 0 0 0\n\0\x01"), Content::Binary);
+        assert_eq!(sniff(&[b'v', b' ', 0xc3, 0x28]), Content::Binary);
+        // UTF-8 cut off at the end of the sample is text.
+        let mut long = vec![b'x'; SNIFF_BYTES - 1];
+        long.extend_from_slice("é".as_bytes());
+        assert_eq!(sniff(&long), Content::Text);
     }
 }

@@ -31,7 +31,7 @@ mod tests;
 
 pub use advection::{Resample, Scheme, advect, advect_with};
 pub use node::MathFn;
-pub use sampler::{CompiledField, grids_read, prepare, probe, stats};
+pub use sampler::{CompiledField, grids_read, prepare, probe, stats, stats_with_count};
 
 use crate::failure::{Failure, Outcome};
 use crate::sample::{GridDerivative, GridSource, Interp};

@@ -185,13 +185,13 @@ pub fn probe(field: &Field, point: DVec3) -> Outcome<FieldValue> {
 /// Cells per unit of parallel work in `stats`: fixed, so results do not depend on threads.
 const STATS_RUN: usize = 16 * BLOCK;
 
-/// `(min, max, mean)` of a scalarfield over the cell centres of `domain`. NaN values make the
-/// mean NaN and are skipped by min and max; the count of non-finite values is returned too.
+/// `(min, max, mean)` of a scalarfield over the cell centres of `domain`, of its finite values
+/// only: NaN and infinite values are left out (all three are NaN when no value is finite).
 pub fn stats(field: &Field, domain: &Domain) -> Outcome<(f64, f64, f64)> {
     stats_with_count(field, domain).map(|(min, max, mean, _)| (min, max, mean))
 }
 
-/// `stats` plus the number of non-finite values seen.
+/// `stats` plus the number of NaN or infinite values left out, for a warning.
 pub fn stats_with_count(field: &Field, domain: &Domain) -> Outcome<(f64, f64, f64, u64)> {
     if field.kind() != FieldKind::Scalar {
         return Err(Failure::new(format!(
@@ -240,14 +240,23 @@ pub fn stats_with_count(field: &Field, domain: &Domain) -> Outcome<(f64, f64, f6
                     evaluator.run(&xs, &ys, &zs, Precision::Double);
                     // Pairwise within a block keeps the sum's rounding small.
                     let values = evaluator.output(0, end - start);
+                    let mut block_bad = 0;
                     for &v in values {
-                        min = min.min(v);
-                        max = max.max(v);
-                        if !v.is_finite() {
-                            bad += 1;
+                        if v.is_finite() {
+                            min = min.min(v);
+                            max = max.max(v);
+                        } else {
+                            block_bad += 1;
                         }
                     }
-                    sum += pairwise_sum(values);
+                    sum += if block_bad == 0 {
+                        pairwise_sum(values)
+                    } else {
+                        let finite: Vec<f64> =
+                            values.iter().copied().filter(|v| v.is_finite()).collect();
+                        pairwise_sum(&finite)
+                    };
+                    bad += block_bad;
                     start = end;
                 }
                 Some((min, max, sum, bad))
@@ -263,7 +272,11 @@ pub fn stats_with_count(field: &Field, domain: &Domain) -> Outcome<(f64, f64, f6
         sums.push(sum);
         total.3 += bad;
     }
-    total.2 = pairwise_sum(&sums) / cells as f64;
+    let finite = cells as u64 - total.3;
+    if finite == 0 {
+        return Ok((f64::NAN, f64::NAN, f64::NAN, total.3));
+    }
+    total.2 = pairwise_sum(&sums) / finite as f64;
     Ok(total)
 }
 

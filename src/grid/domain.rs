@@ -7,6 +7,7 @@
 //! one) and the cell size is then adjusted to `length / count`, so the cells tile the box
 //! exactly; a script that asks for cell 0.1 over length 2 gets 20 cells of exactly 0.1.
 
+use crate::diagnostic::vector_text;
 use crate::failure::{Failure, Outcome};
 use crate::sample::Aabb;
 use glam::{DMat3, DQuat, DVec3};
@@ -42,19 +43,59 @@ impl Domain {
         check_finite("origin", origin)?;
         check_finite("orientation", orientation)?;
         check_positive("lengths", lengths)?;
-        let rotation = if orientation == DVec3::ZERO {
-            DMat3::IDENTITY
-        } else {
-            DMat3::from_quat(DQuat::from_scaled_axis(orientation))
-        };
-        Ok(Domain {
+        let rotation = rotation_of(orientation)?;
+        let domain = Domain {
             origin,
             lengths,
             orientation,
             rotation,
             resolution: None,
             cell: DVec3::ZERO,
-        })
+        };
+        domain.check_representable()?;
+        Ok(domain)
+    }
+
+    /// Checks that the box's corners are finite and that its edges survive rounding where it
+    /// sits (a box of length 1e-3 at 1e20 would have all its points in one place).
+    fn check_representable(&self) -> Outcome<()> {
+        let corners = self.corners();
+        if let Some(bad) = corners.iter().find(|c| !c.is_finite()) {
+            return Err(Failure::new(format!(
+                "domain corner {} is not finite: origin {} plus lengths {} leaves the range of \
+                 floating-point numbers",
+                vector_text(*bad),
+                vector_text(self.origin),
+                vector_text(self.lengths)
+            ))
+            .with_help("use a smaller origin or smaller lengths"));
+        }
+        let precision = self.precision();
+        for axis in 0..3 {
+            let mut local = DVec3::ZERO;
+            local[axis] = self.lengths[axis];
+            let edge = (self.local_to_world(local) - self.origin).length();
+            if edge < 0.5 * self.lengths[axis] {
+                return Err(Failure::new(format!(
+                    "domain lengths {} are too small to place at origin {}: positions there are \
+                     only accurate to {precision:e}",
+                    vector_text(self.lengths),
+                    vector_text(self.origin)
+                ))
+                .with_help("move the domain nearer the world origin or make it larger"));
+            }
+        }
+        Ok(())
+    }
+
+    /// How far apart neighbouring floating-point positions are at the box's farthest corner.
+    fn precision(&self) -> f64 {
+        let farthest = self
+            .corners()
+            .iter()
+            .map(|c| c.abs().max_element())
+            .fold(0.0, f64::max);
+        farthest * f64::EPSILON
     }
 
     /// A domain with cells of size `cell_xy` along its first two axes and `cell_z` along the
@@ -94,6 +135,17 @@ impl Domain {
                 resolution[1] as f64,
                 resolution[2] as f64,
             );
+        // Neighbouring cell centres must be told apart, or a cache holds one value many times.
+        let precision = domain.precision();
+        if domain.cell.min_element() <= 16.0 * precision {
+            return Err(Failure::new(format!(
+                "domain cells of size {} cannot be told apart at origin {}: positions there are \
+                 only accurate to {precision:e}",
+                vector_text(domain.cell),
+                vector_text(origin)
+            ))
+            .with_help("move the domain nearer the world origin or use larger cells"));
+        }
         domain.resolution = Some(resolution);
         Ok(domain)
     }
@@ -213,6 +265,39 @@ impl Domain {
     }
 }
 
+/// The largest rotation angle an orientation may ask for: beyond it one unit in the last place
+/// of the angle is more than a thousandth of a radian, so the rotation is noise.
+const MAX_ANGLE: f64 = 1e12;
+
+/// The rotation matrix of a rotation vector (axis × angle in radians).
+fn rotation_of(orientation: DVec3) -> Outcome<DMat3> {
+    if orientation == DVec3::ZERO {
+        return Ok(DMat3::IDENTITY);
+    }
+    // The length of a vector scaled to unit size, so that 1e155 does not overflow when squared.
+    let scale = orientation.abs().max_element();
+    let angle = scale * (orientation / scale).length();
+    if angle > MAX_ANGLE {
+        return Err(Failure::new(format!(
+            "domain orientation {} turns by {angle:e} radians; at most {MAX_ANGLE:e} radians \
+             make an accurate rotation",
+            vector_text(orientation)
+        ))
+        .with_help(
+            "the orientation is the rotation axis times the angle in radians: reduce the angle \
+             modulo 2π (6.283185307179586)",
+        ));
+    }
+    let rotation = DMat3::from_quat(DQuat::from_scaled_axis(orientation));
+    if !rotation.is_finite() {
+        return Err(Failure::new(format!(
+            "domain orientation {} does not give a finite rotation",
+            vector_text(orientation)
+        )));
+    }
+    Ok(rotation)
+}
+
 fn check_finite(what: &str, v: DVec3) -> Outcome<()> {
     if !v.is_finite() {
         return Err(Failure::new(format!(
@@ -269,5 +354,54 @@ mod tests {
         assert!(Domain::with_cells(DVec3::ZERO, DVec3::ONE, DVec3::ZERO, -0.1, 0.1).is_err());
         let huge = Domain::with_cells(DVec3::ZERO, DVec3::splat(1e4), DVec3::ZERO, 1e-3, 1e-3);
         assert!(huge.unwrap_err().message.contains("memory budget"));
+    }
+
+    #[test]
+    fn rotations_and_corners_must_be_finite_and_distinct() {
+        let one = DVec3::ONE;
+        // 1e155 squared overflows: the rotation used to be NaN and every cell centre with it.
+        let spun = Domain::with_cells(DVec3::ZERO, one, DVec3::splat(1e155), 0.1, 0.1).unwrap_err();
+        assert_eq!(
+            spun.message,
+            "domain orientation (1e155, 1e155, 1e155) turns by 1.7320508075688772e155 radians; \
+             at most 1e12 radians make an accurate rotation"
+        );
+        assert!(spun.help.unwrap().contains("modulo 2π"));
+        // A large but accurate angle is a rotation like any other.
+        let turned = Domain::new(DVec3::ZERO, one, DVec3::new(0.0, 0.0, 1e6)).unwrap();
+        assert!(turned.rotation.is_finite());
+        assert!((turned.rotation.determinant() - 1.0).abs() < 1e-12);
+        let overflow = Domain::new(DVec3::splat(1e308), DVec3::splat(1e308), DVec3::ZERO);
+        assert_eq!(
+            overflow.unwrap_err().message,
+            "domain corner (inf, 1e308, 1e308) is not finite: origin (1e308, 1e308, 1e308) plus \
+             lengths (1e308, 1e308, 1e308) leaves the range of floating-point numbers"
+        );
+        let lost = Domain::new(DVec3::splat(1e20), DVec3::splat(1e-3), DVec3::ZERO).unwrap_err();
+        assert!(
+            lost.message.starts_with(
+                "domain lengths (0.001, 0.001, 0.001) are too small to place at origin"
+            ),
+            "{}",
+            lost.message
+        );
+        let blurred = Domain::with_cells(
+            DVec3::splat(1e9),
+            DVec3::splat(1e-6),
+            DVec3::ZERO,
+            1e-8,
+            1e-8,
+        )
+        .unwrap_err();
+        assert!(
+            blurred.message.starts_with("domain cells of size")
+                && blurred.message.contains("cannot be told apart"),
+            "{}",
+            blurred.message
+        );
+        // Far from the origin, cells a good many ulps wide are fine.
+        let far = Domain::with_cells(DVec3::splat(1e9), one, DVec3::ZERO, 0.01, 0.01).unwrap();
+        assert!(far.cell_center(99, 0, 0).is_finite());
+        assert!(far.cell_center(1, 0, 0).x > far.cell_center(0, 0, 0).x);
     }
 }

@@ -30,6 +30,10 @@ use std::sync::Arc;
 
 type Complex64 = Complex<f64>;
 
+/// The longest correlation length `gaussiannoise` takes: its square, in the spectrum's
+/// exponent, must stay finite (`1e308` made every sample NaN).
+const MAX_CORRELATION: f64 = 1e150;
+
 /// Which derivative a projection makes divergence-free.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum DivergenceOperator {
@@ -54,10 +58,15 @@ pub fn gaussian_random_field(
     seed: u32,
     divergence_free: bool,
 ) -> Outcome<Vec<f32>> {
-    if !(correlation.is_finite() && correlation > 0.0) {
+    if !(correlation > 0.0 && correlation <= MAX_CORRELATION) {
         return Err(Failure::new(format!(
-            "gaussiannoise needs a positive, finite correlation length, got {correlation}"
-        )));
+            "gaussiannoise correlation must be a length above 0 and at most {MAX_CORRELATION:e}, \
+             got {correlation:?}"
+        ))
+        .with_help(
+            "a correlation much longer than the domain gives the same field as one a few \
+             times the domain's size",
+        ));
     }
     let Some(resolution) = domain.resolution else {
         return Err(
@@ -99,7 +108,15 @@ pub fn gaussian_random_field(
     if divergence_free && domain.rotation != DMat3::IDENTITY {
         rotate_vectors(&mut samples, domain.rotation);
     }
-    Ok(samples.concat().into_par_iter().map(|v| v as f32).collect())
+    let values: Vec<f32> = samples.concat().into_par_iter().map(|v| v as f32).collect();
+    // The checks above keep every factor finite; this is the guarantee that no NaN slips out.
+    if let Some(bad) = values.iter().position(|v| !v.is_finite()) {
+        return Err(Failure::new(format!(
+            "gaussiannoise with correlation {correlation:?} gave a non-finite value at cell {}",
+            bad % grid.len
+        )));
+    }
+    Ok(values)
 }
 
 /// Takes the working memory of a transform over `cells` cells from the run's budget, before

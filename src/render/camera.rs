@@ -7,8 +7,31 @@
 //! the top row, and a sample at raster offset `(jx, jy)` inside it is the ray through that point;
 //! one sample per pixel goes through the pixel's centre.
 
+use crate::diagnostic::vector_text;
 use crate::failure::{Failure, Outcome};
 use glam::DVec3;
+
+/// `v`'s length, without overflow or underflow for components near the float range's ends.
+fn robust_length(v: DVec3) -> f64 {
+    let scale = v.abs().max_element();
+    if scale == 0.0 {
+        return 0.0;
+    }
+    scale * (v / scale).length()
+}
+
+/// `v` itself when its length is an ordinary float, else `v` scaled to unit size, so that
+/// `normalize` and `cross` neither overflow (1e300 squared) nor underflow; the directions
+/// taken from either agree.
+fn tame(v: DVec3) -> DVec3 {
+    let length = v.length();
+    let scale = v.abs().max_element();
+    if (1e-150..1e150).contains(&length) || scale == 0.0 {
+        v
+    } else {
+        v / scale
+    }
+}
 
 /// A ray `origin + t · direction`, `direction` of unit length.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -58,15 +81,36 @@ impl Camera {
             .with_help("the field of view is the horizontal angle in degrees, e.g. 45"));
         }
         let view = lookat - eye;
-        if view.length() <= 1e-12 * (1.0 + eye.length()) {
+        if !view.is_finite() {
+            return Err(Failure::new(format!(
+                "camera eye {} is too far from lookat {}: the distance between them is beyond \
+                 the range of floating-point numbers",
+                vector_text(eye),
+                vector_text(lookat)
+            ))
+            .with_help("move the eye and lookat nearer each other and the world origin"));
+        }
+        let distance = robust_length(view);
+        let reach = eye.abs().max_element().max(lookat.abs().max_element());
+        if distance == 0.0 {
             return Err(
                 Failure::new(format!("camera eye and lookat are the same point {eye}"))
                     .with_help("move the eye away from the point it looks at"),
             );
         }
-        let forward = view.normalize();
-        let side = forward.cross(up);
-        if up.length() == 0.0 || side.length() <= 1e-9 * up.length() {
+        if distance <= 1e-12 * (1.0 + reach) {
+            return Err(Failure::new(format!(
+                "camera eye {} and lookat {} are only {distance:e} apart, too close to give a \
+                 view direction {reach:e} from the world origin",
+                vector_text(eye),
+                vector_text(lookat)
+            ))
+            .with_help("move the eye away from the point it looks at"));
+        }
+        let forward = tame(view).normalize();
+        let up_hint = tame(up);
+        let side = forward.cross(up_hint);
+        if up_hint.length() == 0.0 || side.length() <= 1e-9 * up_hint.length() {
             return Err(Failure::new(format!(
                 "camera up {up} is parallel to the view direction {forward}"
             ))
@@ -85,6 +129,19 @@ impl Camera {
             right,
             true_up,
         })
+    }
+
+    /// How far a ray's positions can be trusted: the spacing of floating-point numbers at the
+    /// farthest of the eye and `bounds`'s corners. A render whose step is not well above it
+    /// would sample noise.
+    pub fn precision_over(&self, bounds: &crate::sample::Aabb) -> f64 {
+        let farthest = [self.eye, bounds.min, bounds.max]
+            .iter()
+            .map(|p| p.abs().max_element())
+            .fold(0.0, f64::max);
+        let distance =
+            (bounds.center() - self.eye).abs().max_element() + bounds.size().max_element();
+        (farthest + distance) * f64::EPSILON
     }
 
     /// Overrides the image-plane aspect ratio (width / height).
@@ -211,6 +268,48 @@ mod tests {
         // Centre pixel of an odd-sized image looks straight ahead.
         let centre = cam.raster(101, 51).ray(50, 25, 0.5, 0.5).direction;
         assert!((centre - DVec3::new(0.0, 0.0, -1.0)).length() < 1e-12);
+    }
+
+    #[test]
+    fn far_and_huge_vectors_give_a_camera_or_say_what_is_wrong() {
+        // 1e300 apart used to overflow the distance to infinity: "the same point".
+        let far = Camera::new(
+            DVec3::splat(1e300),
+            DVec3::ZERO,
+            DVec3::new(0.0, 1e300, 0.0),
+            40.0,
+        )
+        .unwrap();
+        let expected = DVec3::splat(-1.0).normalize();
+        assert!((far.forward() - expected).length() < 1e-15);
+        assert!(far.right.is_finite() && far.true_up.is_finite());
+        let box_ = crate::sample::Aabb::new(DVec3::splat(-1.0), DVec3::ONE);
+        assert!(far.precision_over(&box_) > 1e284);
+        let near = Camera::new(DVec3::new(0.0, 0.0, 5.0), DVec3::ZERO, DVec3::Y, 40.0).unwrap();
+        assert!(near.precision_over(&box_) < 1e-14);
+        let apart = Camera::new(
+            DVec3::X * 1e308,
+            DVec3::new(-1e308, 0.0, 0.0),
+            DVec3::Y,
+            40.0,
+        );
+        assert!(
+            apart.unwrap_err().message.starts_with(
+                "camera eye (1e308, 0.0, 0.0) is too far from lookat (-1e308, 0.0, 0.0)"
+            )
+        );
+        let close = Camera::new(DVec3::X * 1e15, DVec3::X * (1e15 + 0.5), DVec3::Y, 40.0);
+        assert_eq!(
+            close.unwrap_err().message,
+            "camera eye (1000000000000000.0, 0.0, 0.0) and lookat (1000000000000000.5, 0.0, 0.0) \
+             are only 5e-1 apart, too close to give a view direction 1.0000000000000005e15 from \
+             the world origin"
+        );
+        let same = Camera::new(DVec3::ONE, DVec3::ONE, DVec3::Y, 40.0).unwrap_err();
+        assert!(
+            same.message
+                .starts_with("camera eye and lookat are the same point")
+        );
     }
 
     #[test]

@@ -35,7 +35,7 @@ use super::camera::{Camera, Raster};
 use super::lighting::Illumination;
 use super::settings::RenderSettings;
 use super::space::Occupancy;
-use super::tile::{MarchStats, Rays, TileOutput};
+use super::tile::{InputCounts, MarchStats, Rays, TileOutput};
 use super::transmittance::ColumnScratch;
 use crate::sample::{Aabb, BLOCK, BlockEval, FieldSampler};
 use glam::DVec3;
@@ -65,6 +65,46 @@ fn step_factors(x: f64) -> (f64, f64) {
     }
     let m = (-x).exp_m1();
     (1.0 + m, -m / x)
+}
+
+/// Replaces the unusable values of one field's block of samples (`width` components, stored
+/// component-major) and counts them per sample: a NaN or infinite component becomes
+/// `if_non_finite` and a negative one zero. The scan is a branch-free pass per component
+/// that finds whether anything is wrong; only a block with bad values takes the slow path.
+fn sanitise(
+    values: &mut [f32],
+    width: usize,
+    positions: &[DVec3],
+    if_non_finite: f32,
+    counts: &mut InputCounts,
+) {
+    let n = positions.len();
+    let values = &mut values[..width * n];
+    let suspect = values
+        .iter()
+        .fold(false, |any, &v| any | !v.is_finite() | (v < 0.0));
+    if !suspect {
+        return;
+    }
+    for k in 0..n {
+        let (mut non_finite, mut negative) = (false, false);
+        for c in 0..width {
+            let v = &mut values[c * n + k];
+            if !v.is_finite() {
+                *v = if_non_finite;
+                non_finite = true;
+            } else if *v < 0.0 {
+                *v = 0.0;
+                negative = true;
+            }
+        }
+        if non_finite {
+            counts.non_finite += 1;
+            counts.first_non_finite.get_or_insert(positions[k]);
+        } else if negative {
+            counts.negative += 1;
+        }
+    }
 }
 
 /// What every tile shares.
@@ -251,29 +291,17 @@ impl<'a> Worker<'a> {
             b.holdout.resize(n, 0.0);
             h.eval_f32(&b.xs, &b.ys, &b.zs, &mut b.holdout);
         }
-        // Sanitise: non-finite values are counted and read as empty; negative density is zero.
-        for k in 0..n {
-            let mut bad = !b.density[k].is_finite();
-            if bad {
-                b.density[k] = 0.0;
-            }
-            b.density[k] = b.density[k].max(0.0);
-            if frame.emission.is_some() {
-                for c in 0..3 {
-                    if !b.emission[c * n + k].is_finite() {
-                        b.emission[c * n + k] = 0.0;
-                        bad = true;
-                    }
-                }
-            }
-            if frame.holdout.is_some() && !b.holdout[k].is_finite() {
-                b.holdout[k] = 1.0;
-                bad = true;
-            }
-            if bad {
-                stats.non_finite += 1;
-                stats.first_non_finite.get_or_insert(b.position[k]);
-            }
+        // Sanitise (the rules are `Scene`'s): a NaN or infinite sample contributes nothing,
+        // negative density and emission are zero; each input's bad samples are counted.
+        stats.density.samples += n as u64;
+        sanitise(&mut b.density, 1, &b.position, 0.0, &mut stats.density);
+        if frame.emission.is_some() {
+            stats.emission.samples += n as u64;
+            sanitise(&mut b.emission, 3, &b.position, 0.0, &mut stats.emission);
+        }
+        if frame.holdout.is_some() {
+            stats.holdout.samples += n as u64;
+            sanitise(&mut b.holdout, 1, &b.position, 1.0, &mut stats.holdout);
         }
         b.dense.clear();
         b.dense.extend((0..n).filter(|&k| b.density[k] > 0.0));
@@ -294,12 +322,8 @@ impl<'a> Worker<'a> {
             }
             b.color.resize(3 * m, 0.0);
             c.eval_f32(&b.dense_xs, &b.dense_ys, &b.dense_zs, &mut b.color);
-            for v in b.color.iter_mut() {
-                if !v.is_finite() {
-                    *v = 0.0;
-                    stats.non_finite += 1;
-                }
-            }
+            stats.color.samples += m as u64;
+            sanitise(&mut b.color, 3, &b.dense_position, 0.0, &mut stats.color);
         }
         b.scattered.resize(lights * m, DVec3::ZERO);
         b.columns.resize(m, 0.0);

@@ -36,9 +36,10 @@ pub use image::{Image, write_image};
 pub use light::{DistantLight, Light, PointLight};
 pub use phase::Phase;
 pub use settings::{Adaptive, Aovs, MultiScatter, RenderSettings, Shadows};
-pub use tile::MarchStats;
+pub use tile::{InputCounts, MarchStats};
 pub use transmittance::{TransmissivityMethod, transmissivity};
 
+use crate::diagnostic::{grouped, vector_text};
 use crate::failure::{Failure, Outcome};
 use crate::sample::{Aabb, FieldSampler};
 use lighting::Illumination;
@@ -51,8 +52,14 @@ use std::time::{Duration, Instant};
 use tile::TileOutput;
 
 /// What to render.
+///
+/// Values the march cannot use are read by one rule: a sample that is NaN or infinite
+/// contributes nothing (density, colour and emission read as 0, a holdout as 1, no holdout),
+/// and a negative sample is clamped to 0 (a holdout above 1 is read as 1). So an infinite
+/// density is empty, not opaque: the largest finite density is the way to say opaque. Every
+/// such sample is counted per input (`MarchStats`), and `RenderStats::warnings` says so.
 pub struct Scene<'a> {
-    /// Scalar density (width 1); negative values count as zero.
+    /// Scalar density (width 1).
     pub density: &'a dyn FieldSampler,
     /// Colour (width 3) scattering the light; white when absent.
     pub color: Option<&'a dyn FieldSampler>,
@@ -76,6 +83,75 @@ pub struct RenderStats {
     /// Seconds spent on shadow grids and on the march.
     pub shadow_seconds: f64,
     pub march_seconds: f64,
+}
+
+/// A render's warning for the script author: what went wrong, and what might fix it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderWarning {
+    pub message: String,
+    pub help: &'static str,
+}
+
+impl RenderStats {
+    /// One warning for each input field that gave NaN, infinite or negative samples (named by
+    /// its `render` argument, with the counts and what they were read as), and one for pixels
+    /// that overflowed.
+    pub fn warnings(&self) -> Vec<RenderWarning> {
+        let m = &self.march;
+        let inputs = [
+            ("density", &m.density, "treated as 0: empty"),
+            ("color", &m.color, "treated as 0: black"),
+            ("emission", &m.emission, "treated as 0: no light"),
+            ("holdout", &m.holdout, "treated as 1: not held out"),
+        ];
+        let mut warnings = Vec::new();
+        for (name, counts, treated) in inputs {
+            if counts.is_clean() {
+                continue;
+            }
+            let total = grouped(counts.samples);
+            let negative = grouped(counts.negative);
+            let message = match counts.first_non_finite {
+                Some(at) => {
+                    let mut text = format!(
+                        "render: {name} was NaN or infinite at {} of {total} samples ({treated}), \
+                         the first at {}",
+                        grouped(counts.non_finite),
+                        vector_text(at)
+                    );
+                    if counts.negative > 0 {
+                        text += &format!(", and negative at {negative} (clamped to 0)");
+                    }
+                    text
+                }
+                None => {
+                    format!(
+                        "render: {name} was negative at {negative} of {total} samples (clamped to 0)"
+                    )
+                }
+            };
+            let help = if counts.non_finite > 0 {
+                "a division by a field that is zero somewhere gives infinities or NaN; guard it \
+                 with select or max"
+            } else {
+                "negative values have no meaning here; say what they should be with \
+                 max(field, 0) or clamp"
+            };
+            warnings.push(RenderWarning { message, help });
+        }
+        if m.bad_pixels > 0 {
+            warnings.push(RenderWarning {
+                message: format!(
+                    "render: {} pixel values overflowed the 32-bit image (infinite ones are \
+                     written as infinity, NaN ones as 0)",
+                    grouped(m.bad_pixels)
+                ),
+                help: "the density, colour, emission or light strengths are near the largest \
+                       floats; scale them down",
+            });
+        }
+        warnings
+    }
 }
 
 /// Renders `scene` with `settings`.
@@ -109,6 +185,15 @@ pub fn render_with_stats(
             diagonal / smallest
         ))
         .with_help("use a larger step (it is a world-space length) or a smaller bounds box"));
+    }
+    let precision = scene.camera.precision_over(&bounds);
+    if precision > 0.1 * smallest {
+        return Err(Failure::new(format!(
+            "the camera eye {} is so far from the render box that positions along its rays are \
+             only accurate to {precision:e}, too coarse for a step of {smallest}",
+            vector_text(scene.camera.eye)
+        ))
+        .with_help("move the camera nearer the box (a smaller fov keeps the framing)"));
     }
     let aov_names = aov_names(settings, scene.lights.len());
     let pixels = settings.width as f64 * settings.height as f64;

@@ -19,19 +19,54 @@ pub struct MarchStats {
     pub samples: u64,
     /// Adaptive steps discarded and retried shorter.
     pub rejected: u64,
-    /// Samples where a field returned NaN or infinity (read as zero, or no holdout).
-    pub non_finite: u64,
-    pub first_non_finite: Option<DVec3>,
+    /// What each input field gave that the march could not use as it was (see `Scene`).
+    pub density: InputCounts,
+    pub color: InputCounts,
+    pub emission: InputCounts,
+    pub holdout: InputCounts,
+    /// Pixel channels whose value does not fit a 32-bit float (written as infinity), or came
+    /// out NaN (written as 0).
+    pub bad_pixels: u64,
 }
 
 impl MarchStats {
     pub fn merge(&mut self, other: &MarchStats) {
         self.samples += other.samples;
         self.rejected += other.rejected;
+        self.density.merge(&other.density);
+        self.color.merge(&other.color);
+        self.emission.merge(&other.emission);
+        self.holdout.merge(&other.holdout);
+        self.bad_pixels += other.bad_pixels;
+    }
+}
+
+/// One input field's samples along camera rays, and how many of them were unusable.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct InputCounts {
+    /// Samples where the field was evaluated.
+    pub samples: u64,
+    /// Samples where some component was NaN or infinite.
+    pub non_finite: u64,
+    /// Samples where some component was negative (and none was NaN or infinite).
+    pub negative: u64,
+    /// Where the first non-finite sample was, in tile order (the same for any thread count).
+    pub first_non_finite: Option<DVec3>,
+}
+
+impl InputCounts {
+    pub fn merge(&mut self, other: &InputCounts) {
+        self.samples += other.samples;
         self.non_finite += other.non_finite;
+        self.negative += other.negative;
         if self.first_non_finite.is_none() {
             self.first_non_finite = other.first_non_finite;
         }
+    }
+
+    /// Nothing to report.
+    pub fn is_clean(&self) -> bool {
+        self.non_finite == 0 && self.negative == 0
     }
 }
 
@@ -170,7 +205,7 @@ impl Rays {
         y0: usize,
         w: usize,
         h: usize,
-        stats: MarchStats,
+        mut stats: MarchStats,
     ) -> TileOutput {
         let spp = frame.settings.spp as usize;
         let lights = frame.illumination.lights.len();
@@ -184,10 +219,11 @@ impl Rays {
             let mean = |v: &[DVec3]| v[range.clone()].iter().copied().sum::<DVec3>() * inv;
             let color = mean(&rays.color);
             let transmittance = mean(&rays.transmittance).element_sum() / 3.0;
+            let bad = &mut stats.bad_pixels;
             rgba.push([
-                color.x as f32,
-                color.y as f32,
-                color.z as f32,
+                channel(color.x, bad),
+                channel(color.y, bad),
+                channel(color.z, bad),
                 (1.0 - transmittance) as f32,
             ]);
             if aovs.depth {
@@ -204,7 +240,8 @@ impl Rays {
             }
             if aovs.emission {
                 let e = mean(&rays.emitted);
-                out.extend([e.x as f32, e.y as f32, e.z as f32]);
+                let bad = &mut stats.bad_pixels;
+                out.extend([channel(e.x, bad), channel(e.y, bad), channel(e.z, bad)]);
             }
             if aovs.lights {
                 for light in 0..lights {
@@ -213,7 +250,8 @@ impl Rays {
                         sum += rays.lit[r * lights + light];
                     }
                     let l = sum * inv;
-                    out.extend([l.x as f32, l.y as f32, l.z as f32]);
+                    let bad = &mut stats.bad_pixels;
+                    out.extend([channel(l.x, bad), channel(l.y, bad), channel(l.z, bad)]);
                 }
             }
         }
@@ -227,6 +265,18 @@ impl Rays {
             stats,
         }
     }
+}
+
+/// A colour channel as written. The march's inputs are sanitised, so only arithmetic overflow
+/// (values near the largest floats multiplied together) can leave a channel beyond the `f32`
+/// range (written as infinity) or NaN (written as 0); both are counted for a warning.
+fn channel(value: f64, bad: &mut u64) -> f32 {
+    let v = value as f32;
+    if v.is_finite() {
+        return v;
+    }
+    *bad += 1;
+    if v.is_nan() { 0.0 } else { v }
 }
 
 fn reset<T: Clone>(v: &mut Vec<T>, n: usize, value: T) {

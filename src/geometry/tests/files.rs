@@ -164,6 +164,84 @@ fn unknown_extensions_and_missing_files_are_failures() {
 }
 
 #[test]
+fn files_whose_content_is_not_their_extension_are_refused() {
+    let directory = tempfile::tempdir().unwrap();
+    let write = |name: &str, bytes: &[u8]| {
+        let path = directory.path().join(name);
+        std::fs::write(&path, bytes).unwrap();
+        path
+    };
+    let message = |path: &std::path::Path| load_mesh(path).unwrap_err();
+    // A VDB file renamed .obj used to load as an empty shape.
+    let vdb = crate::grid::vdb::write_bytes(
+        &[crate::grid::vdb::VdbGrid::new(
+            "density",
+            crate::grid::vdb::FOG_VOLUME,
+            crate::grid::vdb::VdbValues::Float,
+            [0.0; 3],
+            glam::DMat4::IDENTITY,
+        )],
+        crate::grid::vdb::Compression::Zip,
+    )
+    .unwrap();
+    for name in ["h1.obj", "h1.ply"] {
+        let path = write(name, &vdb);
+        let failure = message(&path);
+        let kind = if name.ends_with("obj") {
+            "an OBJ"
+        } else {
+            "a PLY"
+        };
+        assert_eq!(
+            failure.message,
+            format!("{}: this is a VDB file, not {kind} mesh", path.display())
+        );
+        assert!(failure.help.unwrap().contains("cacheload"));
+    }
+    let ply = write_ply(&tetra_expected()).unwrap();
+    let failure = message(&write("tetra.obj", &ply));
+    assert!(
+        failure
+            .message
+            .ends_with("this is a PLY mesh, not an OBJ mesh"),
+        "{}",
+        failure.message
+    );
+    assert!(failure.help.unwrap().contains(".ply"));
+    let obj = write_obj(&tetra_expected()).unwrap();
+    let failure = message(&write("tetra.ply", &obj));
+    assert!(
+        failure
+            .message
+            .ends_with("this is not a PLY file: it does not start with 'ply' (it is a text file)"),
+        "{}",
+        failure.message
+    );
+    // Binary bytes with no vertices or faces are not an OBJ mesh; an empty text file still is
+    // an empty one.
+    let failure = message(&write(
+        "noise.obj",
+        &[0x00, 0x9f, 0x92, 0x96, b'\n', 0x01, 0x02],
+    ));
+    assert!(
+        failure
+            .message
+            .ends_with("this is not an OBJ mesh: it holds binary data and no vertices or faces"),
+        "{}",
+        failure.message
+    );
+    let empty = load_mesh(&write("empty.obj", b"# nothing yet\n")).unwrap();
+    assert!(empty.positions.is_empty() && empty.triangles.is_empty());
+    // A text OBJ with a stray Latin-1 comment still reads.
+    let mut latin = b"# caf\xe9\n".to_vec();
+    latin.extend_from_slice(&obj);
+    assert_eq!(
+        load_mesh(&write("latin.obj", &latin)).unwrap(),
+        tetra_expected()
+    );
+}
+
+#[test]
 fn every_encoding_of_one_mesh_reads_the_same() {
     let files = super::files_for_mutation();
     let meshes: Vec<Mesh> = files

@@ -305,6 +305,30 @@ fn bad_requests_are_failures() {
         let e = gaussian_random_field(&d, correlation, 0, false).unwrap_err();
         assert!(e.message.contains("correlation"), "{}", e.message);
     }
+    // 1e308 squared overflowed inside the spectrum and made every sample NaN.
+    for correlation in [1e308, 2e150] {
+        let e = gaussian_random_field(&d, correlation, 0, false).unwrap_err();
+        assert_eq!(
+            e.message,
+            format!(
+                "gaussiannoise correlation must be a length above 0 and at most 1e150, got \
+                 {correlation:?}"
+            )
+        );
+    }
+    // Up to the limit every sample is finite, scalar or divergence-free, and a correlation
+    // far longer than the grid gives the same field as one a few times its size.
+    for divergence_free in [false, true] {
+        let longest = gaussian_random_field(&d, 1e150, 3, divergence_free).unwrap();
+        assert!(longest.iter().all(|v| v.is_finite()));
+        let long = gaussian_random_field(&d, 1e3, 3, divergence_free).unwrap();
+        let gap = longest
+            .iter()
+            .zip(&long)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f32::max);
+        assert!(gap < 1e-3, "{gap}");
+    }
     let cellless = Domain::new(DVec3::ZERO, DVec3::ONE, DVec3::ZERO).unwrap();
     let e = gaussian_random_field(&cellless, 0.1, 0, false).unwrap_err();
     assert!(e.message.contains("domain with cells") && e.help.is_some());

@@ -310,6 +310,20 @@ fn value_format(
 }
 
 fn read_archive(bytes: &[u8], wanted: Option<&str>) -> Outcome<Vec<VdbGrid>> {
+    let content = crate::input::sniff(bytes);
+    if content != crate::input::Content::Vdb {
+        let failure = Failure::new(format!(
+            "not an OpenVDB file: it does not start with the VDB magic number (it is {})",
+            content.describe()
+        ));
+        return Err(match content {
+            crate::input::Content::Ply => failure.with_help("read meshes with loadshape"),
+            crate::input::Content::Text => {
+                failure.with_help("if it is an OBJ mesh, read it with loadshape")
+            }
+            _ => failure,
+        });
+    }
     let mut cur = Cursor::new(bytes);
     let header = read_header(&mut cur)?;
     read_metadata(&mut cur)?;

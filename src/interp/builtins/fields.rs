@@ -2,6 +2,7 @@
 //! Each only builds graph nodes, except `probe` and `stats`, which are outputs: they compile
 //! the graph they need and evaluate it.
 
+use crate::diagnostic::{Diagnostic, Stage, grouped};
 use crate::failure::{Failure, Outcome};
 use crate::field::{self, Field, FieldKind, FieldValue};
 use crate::interp::Interpreter;
@@ -224,12 +225,33 @@ pub fn register(r: &mut Registry) {
     r.add(
         "inspection",
         &["stats(scalarfield f, domain d) -> vector"],
-        "(min, max, mean) of f over the cell centres of d",
-        |_, a| {
+        "(min, max, mean) of f over the cell centres of d, of its finite values (with a \
+         warning when some are NaN or infinite)",
+        |interp, a| {
             let Value::Domain(d) = a.get(1)? else {
                 return Err(Failure::new("stats needs a domain"));
             };
-            let (min, max, mean) = field::stats(&a.get(0)?.as_field()?, d)?;
+            let (min, max, mean, bad) = field::stats_with_count(&a.get(0)?.as_field()?, d)?;
+            if bad > 0 {
+                let cells = d.cell_count() as u64;
+                let left = if bad == cells {
+                    "no value is finite, so min, max and mean are NaN".to_string()
+                } else {
+                    format!("min, max and mean are of the other {} cells", grouped(cells - bad))
+                };
+                interp.warnings.push(
+                    Diagnostic::warning(
+                        Stage::Runtime,
+                        interp.call_span,
+                        format!(
+                            "stats: the field was NaN or infinite at {} of {} cells; {left}",
+                            grouped(bad),
+                            grouped(cells)
+                        ),
+                    )
+                    .with_help("a division by a field that is zero somewhere gives infinities or NaN; guard it with select or max"),
+                );
+            }
             Ok(Value::Vector(glam::DVec3::new(min, max, mean)))
         },
     );

@@ -133,7 +133,7 @@ pub fn register(r: &mut Registry) {
         "writes c to an OpenVDB file (grid named \"density\" or \"vel\", or the name after '#': \"a.vdb#temperature\")",
         |interp, a| {
             let cache = written(&a)?;
-            let (path, name) = split_grid_name(a.string(1)?);
+            let (path, name) = split_grid_name(a.string(1)?)?;
             let name = name.unwrap_or(if cache.width() == 1 { "density" } else { "vel" });
             vdb_cache::save(&cache, Path::new(path), name)?;
             report_now(interp, &cache);
@@ -146,8 +146,8 @@ pub fn register(r: &mut Registry) {
             "cacheload(string path, string grid) -> scalarfield",
         ],
         "reads a float grid of an OpenVDB file as a field (linear interpolation, background outside)",
-        |_, a| {
-            let cache = vdb_cache::load(Path::new(a.string(0)?), a.string(1)?, 1)?;
+        |interp, a| {
+            let cache = load_checked(interp, &a, 1)?;
             let grid: Arc<dyn GridSource> = Arc::new(cache);
             Ok(Value::Field(Field::from_grid(grid, Interp::Linear, GridDerivative::Interpolant)?))
         },
@@ -156,8 +156,8 @@ pub fn register(r: &mut Registry) {
         "caches",
         &["cacheloadvector(string path, string grid) -> vectorfield"],
         "reads a vector grid of an OpenVDB file as a field",
-        |_, a| {
-            let cache = vdb_cache::load(Path::new(a.string(0)?), a.string(1)?, 3)?;
+        |interp, a| {
+            let cache = load_checked(interp, &a, 3)?;
             let grid: Arc<dyn GridSource> = Arc::new(cache);
             Ok(Value::Field(Field::from_grid(
                 grid,
@@ -166,6 +166,21 @@ pub fn register(r: &mut Registry) {
             )?))
         },
     );
+}
+
+/// `cacheload`'s grid as a cache, with a warning when it holds NaN or infinite values.
+fn load_checked(interp: &mut Interpreter, a: &Args, width: usize) -> Outcome<Cache> {
+    let (path, name) = (Path::new(a.string(0)?), a.string(1)?);
+    let (cache, check) = vdb_cache::load(path, name, width)?;
+    if let Some(message) = check.warning(path, name) {
+        interp.warnings.push(
+            Diagnostic::warning(Stage::Runtime, interp.call_span, message).with_help(
+                "reading those voxels gives NaN; a render treats them as empty, other uses \
+                 pass them on",
+            ),
+        );
+    }
+    Ok(cache)
 }
 
 fn new_cache(a: &Args, shape: Shape, background: Vec<f64>) -> Outcome<Value> {
@@ -314,11 +329,18 @@ fn constant_of(shape: Shape, background: &[f64]) -> Field {
     }
 }
 
-/// `"a.vdb#name"` → (`"a.vdb"`, `Some("name")`).
-fn split_grid_name(path: &str) -> (&str, Option<&str>) {
+/// `"a.vdb#name"` → (`"a.vdb"`, `Some("name")`); `"a.vdb#"`, with nothing after the `#`, is an
+/// error rather than a file called `a.vdb#`.
+fn split_grid_name(path: &str) -> Outcome<(&str, Option<&str>)> {
     match path.rsplit_once('#') {
-        Some((file, name)) if !name.is_empty() => (file, Some(name)),
-        _ => (path, None),
+        Some((file, "")) => Err(Failure::new(format!(
+            "the grid name after '#' in \"{path}\" is empty"
+        ))
+        .with_help(format!(
+            "name the grid (\"{file}#density\") or leave out the '#' for the default name"
+        ))),
+        Some((file, name)) => Ok((file, Some(name))),
+        None => Ok((path, None)),
     }
 }
 

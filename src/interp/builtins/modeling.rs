@@ -105,8 +105,8 @@ pub fn register(r: &mut Registry) {
             "gaussiannoise(domain d, float correlation, int seed, bool divfree) -> vectorfield",
         ],
         "an FFT-synthesised Gaussian random field over d's cells (periodic; zero mean, unit \
-         variance, covariance exp(-r^2 / (2 correlation^2))); the four-argument form is a \
-         vectorfield, divergence-free when divfree is true",
+         variance, covariance exp(-r^2 / (2 correlation^2)), correlation above 0 and at most \
+         1e150); the four-argument form is a vectorfield, divergence-free when divfree is true",
         |interp, a| {
             let Value::Domain(d) = a.get(0)? else {
                 return Err(Failure::new("gaussiannoise needs a domain"));

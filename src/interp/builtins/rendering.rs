@@ -5,6 +5,7 @@
 //! (or `bounds = domain`). Every option of the raymarcher is a keyword argument with the
 //! raymarcher's default, so `render("out.exr", density = rho, camera = cam)` is a complete call.
 
+use crate::diagnostic::{Diagnostic, Stage};
 use crate::failure::{Failure, Outcome};
 use crate::field::{CompiledField, Field};
 use crate::grid::cache::Cache;
@@ -301,8 +302,14 @@ fn run_render(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
         Failure::new(format!("cannot write image '{path}': {e}"))
             .with_help("create the folder first, or write somewhere else")
     })?;
-    let image = render::render(&scene, &settings)?;
+    let (image, render_stats) = render::render_with_stats(&scene, &settings)?;
     render::write_image(Path::new(&path), &image)?;
+    for warning in render_stats.warnings() {
+        interp.warnings.push(
+            Diagnostic::warning(Stage::Runtime, interp.call_span, warning.message)
+                .with_help(warning.help),
+        );
+    }
     let stats = crate::grid::profile::register("render", &label);
     stats.add_instance(0);
     stats.add_work(

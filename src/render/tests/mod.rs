@@ -1,6 +1,7 @@
-//! Renders of scenes with closed-form answers (`closed_forms`), and the properties every
-//! render must have (`properties`).
+//! Renders of scenes with closed-form answers (`closed_forms`), the properties every render
+//! must have (`properties`), and inputs the march cannot use (`bad_inputs`).
 
+mod bad_inputs;
 mod closed_forms;
 mod properties;
 
