@@ -265,7 +265,7 @@ mod tests {
             message.contains(
                 "spans voxel indices [-1073741824, 0, 0] to [1073741831, 7, 7], a box of \
                  2147483656 x 8 x 8 voxels"
-            ) && message.contains("over the memory limit"),
+            ) && message.contains("over the memory budget"),
             "{message}"
         );
         assert!(!message.contains("must be positive"), "{message}");
