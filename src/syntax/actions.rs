@@ -91,9 +91,11 @@ fn checked<'src>(kind: ExprKind, span: Span) -> Built<'src, Expr> {
 }
 
 /// `left op right`. When `left` is itself a chain of operations written without parentheses,
-/// this one continues it: `(a + b) - c` and `a + b - c` are the same left-to-right fold, and
-/// a long sum stays one node. The chain passed the depth check when it was built, so only the
-/// new operand is measured, and building a chain of n terms takes time linear in n.
+/// this one continues it: `a + b - c` is one node folding `a` with `+ b` then `- c`, which is
+/// what the tree `(a + b) - c` computes, so a long sum stays one node. (Parenthesised, the
+/// chain is left as it is: parentheses are nesting, and counted.) The chain passed the depth
+/// check when it was built, so only the new operand is measured, and building a chain of n
+/// terms takes time linear in n.
 pub fn binary<'src>(left: Expr, op: BinaryOp, right: Expr) -> Built<'src, Expr> {
     let span = left.span.to(right.span);
     let operation = Operation {

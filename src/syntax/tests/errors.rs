@@ -105,6 +105,13 @@ fn a_doubled_sign_in_an_expression_is_the_decrement_operator() {
 }
 
 #[test]
+fn array_types_state_their_limit() {
+    let source = format!("float{} x;", "[]".repeat(256));
+    check(&source, "too many `[]` in a type (more than 255)", 1, 1);
+    assert!(parse(FileId(0), &format!("float{} x;", "[]".repeat(255))).is_ok());
+}
+
+#[test]
 fn unexpected_tokens_are_named_by_their_text_and_expected_sets_are_summarised() {
     check("x = ;", "unexpected `;`, expected an expression", 1, 5);
     check(
