@@ -69,8 +69,8 @@ fn step_factors(x: f64) -> (f64, f64) {
 
 /// Replaces the unusable values of one field's block of samples (`width` components, stored
 /// component-major) and counts them per sample: a NaN or infinite component becomes
-/// `if_non_finite` and a negative one zero. The scan is a branch-free pass per component
-/// that finds whether anything is wrong; only a block with bad values takes the slow path.
+/// `if_non_finite` and a negative one zero. A branch-free pass over the block first finds
+/// whether anything is wrong, so only a block with bad values takes the per-sample path.
 fn sanitise(
     values: &mut [f32],
     width: usize,
