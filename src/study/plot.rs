@@ -217,15 +217,31 @@ fn pareto(path: &Path, plan: &Plan, rows: &[Row], name: &str) -> Result<bool, St
             EmptyElement::at(*p) + Text::new(l.clone(), (7, -14), ("sans-serif", 11).into_font())
         }))
         .map_err(|e| fail(&e))?;
+    finish(&mut chart, &root, &legend_points)?;
+    Ok(true)
+}
+
+/// A chart over log (or position) coordinates on an SVG page.
+type Chart<'a, 'b> = ChartContext<
+    'a,
+    SVGBackend<'b>,
+    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+>;
+
+/// Draws the legend in the corner farthest from the points and writes the page.
+fn finish<'a>(
+    chart: &mut Chart<'a, 'a>,
+    root: &DrawingArea<SVGBackend<'_>, plotters::coord::Shift>,
+    points: &[(f64, f64)],
+) -> Result<(), String> {
     chart
         .configure_series_labels()
-        .position(emptiest_corner(&legend_points))
+        .position(emptiest_corner(points))
         .background_style(WHITE.mix(0.85))
         .border_style(BLACK)
         .draw()
-        .map_err(|e| fail(&e))?;
-    root.present().map_err(|e| fail(&e))?;
-    Ok(true)
+        .map_err(|e| e.to_string())?;
+    root.present().map_err(|e| e.to_string())
 }
 
 /// One number of a row, where it has one.
@@ -359,14 +375,7 @@ fn against(
             .draw_series(points.iter().map(|p| Circle::new(*p, 4, colour.filled())))
             .map_err(|e| fail(&e))?;
     }
-    chart
-        .configure_series_labels()
-        .position(emptiest_corner(&legend_points))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()
-        .map_err(|e| fail(&e))?;
-    root.present().map_err(|e| fail(&e))?;
+    finish(&mut chart, &root, &legend_points)?;
     Ok(true)
 }
 
