@@ -246,6 +246,7 @@ impl Interpreter {
                 values: converted,
                 rest,
                 form,
+                signature: sig,
             },
         );
         self.call_span = previous;

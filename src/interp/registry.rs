@@ -75,43 +75,82 @@ impl Signature {
 
 /// The arguments of one builtin call, already converted to the matched signature's types and
 /// put in parameter order (`None` for an optional parameter not given).
+///
+/// Builtins read them by parameter name (`a.float("step")`), so the signature string is the
+/// one place a parameter's position is written; a positional index still works for the
+/// builtins whose forms differ only in arity.
 pub struct Args {
     pub values: Vec<Option<Value>>,
     pub rest: Vec<Value>,
     /// Index of the signature that matched, for builtins whose forms differ in behaviour.
     pub form: usize,
+    /// The matched signature, for reading arguments by name.
+    pub signature: &'static Signature,
+}
+
+/// How a builtin names one of its arguments: by position or by parameter name.
+pub trait ArgKey: Copy + fmt::Display {
+    fn index(self, signature: &Signature) -> Option<usize>;
+}
+
+impl ArgKey for usize {
+    fn index(self, _: &Signature) -> Option<usize> {
+        Some(self)
+    }
+}
+
+impl ArgKey for &str {
+    fn index(self, signature: &Signature) -> Option<usize> {
+        signature.param_index(self)
+    }
 }
 
 impl Args {
-    pub fn get(&self, i: usize) -> Result<&Value, Failure> {
-        self.values
-            .get(i)
+    fn slot<K: ArgKey>(&self, key: K) -> Option<usize> {
+        let i = key.index(self.signature);
+        // A name that is not a parameter of the matched form is a mistake in felt's source,
+        // caught by the builtin's tests; at run time it reads as "not given".
+        debug_assert!(
+            i.is_some(),
+            "builtin reads `{key}`, which its signature lacks"
+        );
+        i
+    }
+
+    pub fn get<K: ArgKey>(&self, key: K) -> Result<&Value, Failure> {
+        self.opt(key)
+            .ok_or_else(|| Failure::new(format!("missing argument `{key}`")))
+    }
+
+    pub fn opt<K: ArgKey>(&self, key: K) -> Option<&Value> {
+        self.slot(key)
+            .and_then(|i| self.values.get(i))
             .and_then(|v| v.as_ref())
-            .ok_or_else(|| Failure::new(format!("missing argument {}", i + 1)))
     }
 
-    pub fn opt(&self, i: usize) -> Option<&Value> {
-        self.values.get(i).and_then(|v| v.as_ref())
+    /// Whether the caller gave this argument.
+    pub fn given<K: ArgKey>(&self, key: K) -> bool {
+        self.opt(key).is_some()
     }
 
-    pub fn float(&self, i: usize) -> Result<f64, Failure> {
-        self.get(i)?.as_float()
+    pub fn float<K: ArgKey>(&self, key: K) -> Result<f64, Failure> {
+        self.get(key)?.as_float()
     }
 
-    pub fn int(&self, i: usize) -> Result<i64, Failure> {
-        self.get(i)?.as_int()
+    pub fn int<K: ArgKey>(&self, key: K) -> Result<i64, Failure> {
+        self.get(key)?.as_int()
     }
 
-    pub fn opt_float(&self, i: usize) -> Result<Option<f64>, Failure> {
-        self.opt(i).map(|v| v.as_float()).transpose()
+    pub fn opt_float<K: ArgKey>(&self, key: K) -> Result<Option<f64>, Failure> {
+        self.opt(key).map(|v| v.as_float()).transpose()
     }
 
-    pub fn opt_int(&self, i: usize) -> Result<Option<i64>, Failure> {
-        self.opt(i).map(|v| v.as_int()).transpose()
+    pub fn opt_int<K: ArgKey>(&self, key: K) -> Result<Option<i64>, Failure> {
+        self.opt(key).map(|v| v.as_int()).transpose()
     }
 
-    pub fn string(&self, i: usize) -> Result<&str, Failure> {
-        self.get(i)?.as_str()
+    pub fn string<K: ArgKey>(&self, key: K) -> Result<&str, Failure> {
+        self.get(key)?.as_str()
     }
 }
 
