@@ -101,6 +101,9 @@ enum Command {
     Check {
         /// The script to check.
         file: PathBuf,
+        /// Check a `param` override as `felt run --set name=value` would take it (repeatable).
+        #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_assignment)]
+        set: Vec<(String, String)>,
     },
     /// Start an interactive session.
     Repl {
@@ -285,15 +288,24 @@ fn run(cli: Cli) -> ExitCode {
             threads,
             memory_limit,
         })),
-        Command::Check { file } => {
+        Command::Check { file, set } => {
             let mut session = match Session::new(Box::new(std::io::stdout())) {
                 Ok(s) => s,
                 Err(failure) => {
                     return report(&failure.sources, &failure.diagnostics, color, 1);
                 }
             };
+            session.interp.overrides = set.into_iter().collect();
             let diags = match session.load(&file) {
-                Ok(units) => session.check(&units),
+                Ok(units) => {
+                    let mut diags = session.check(&units);
+                    if !diags.iter().any(|d| d.is_error())
+                        && let Err(d) = session.check_overrides(&units)
+                    {
+                        diags.push(d);
+                    }
+                    diags
+                }
                 Err(diags) => diags,
             };
             let usage = diags

@@ -187,25 +187,13 @@ impl Session {
 
     /// The `param` declarations of the loaded script, in order, with their declared types.
     pub fn params(units: &[Unit]) -> Vec<(String, crate::check::types::Type)> {
-        let mut params = Vec::new();
-        for unit in units {
-            for item in &unit.program.items {
-                if let Item::Stmt(stmt) = item
-                    && let StmtKind::Decl {
-                        is_param: true,
-                        name,
-                        ty,
-                        ..
-                    } = &stmt.kind
-                {
-                    params.push((name.name.clone(), crate::check::types::Type::from_expr(ty)));
-                }
-            }
-        }
-        params
+        param_decls(units)
+            .map(|(name, ty)| (name.name.clone(), ty))
+            .collect()
     }
 
-    /// Verifies that every `--set NAME=VALUE` names a `param` of the loaded script.
+    /// Verifies that every `--set NAME=VALUE` names a `param` of the loaded script and reads as
+    /// its declared type.
     pub fn check_overrides(&self, units: &[Unit]) -> Result<(), Diagnostic> {
         let params: Vec<String> = Self::params(units).into_iter().map(|(n, _)| n).collect();
         for name in self.interp.overrides.keys() {
@@ -224,6 +212,13 @@ impl Session {
                         })
                     });
                 return Err(d);
+            }
+        }
+        // A value of the wrong type is found now, before any work, not when the run reaches
+        // the declaration.
+        for (name, declared) in param_decls(units) {
+            if let Some(text) = self.interp.overrides.get(&name.name) {
+                crate::interp::override_value(name, &declared, text)?;
             }
         }
         Ok(())
@@ -384,4 +379,25 @@ fn display_name(path: &Path) -> String {
     path.file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| path.display().to_string())
+}
+
+/// The `param` declarations of the units, in order: name and declared type.
+fn param_decls(
+    units: &[Unit],
+) -> impl Iterator<Item = (&crate::syntax::ast::Ident, crate::check::types::Type)> {
+    units
+        .iter()
+        .flat_map(|unit| &unit.program.items)
+        .filter_map(|item| match item {
+            Item::Stmt(stmt) => match &stmt.kind {
+                StmtKind::Decl {
+                    is_param: true,
+                    name,
+                    ty,
+                    ..
+                } => Some((name, crate::check::types::Type::from_expr(ty))),
+                _ => None,
+            },
+            _ => None,
+        })
 }

@@ -104,6 +104,74 @@ fn check_reports_without_running() {
     );
 }
 
+/// `felt check --set` reads each value as `felt run --set` would, without running anything:
+/// a value of the wrong type, or a param the script does not declare, is a usage error (exit
+/// 2) at the declaration, and a good value passes.
+#[test]
+fn check_reads_set_values_as_run_does() {
+    let check = |set: &str| {
+        let out = felt()
+            .args(["check", "tests/scripts/lang/params.felt", "--set", set])
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        let stderr = stderr.split_whitespace().collect::<Vec<_>>().join(" ");
+        (
+            out.status.code(),
+            stderr,
+            String::from_utf8_lossy(&out.stdout).to_string(),
+        )
+    };
+    let (code, stderr, stdout) = check("frames=2");
+    assert_eq!(code, Some(0), "{stderr}");
+    // Checked, not run: the script's print did not happen.
+    assert_eq!(stdout.trim(), "tests/scripts/lang/params.felt: no errors");
+    let (code, stderr, _) = check("frames=2.5");
+    assert_eq!(code, Some(2), "{stderr}");
+    assert!(
+        stderr.contains("--set frames=2.5: expected an int, found `2.5`"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("params.felt:3:11"), "{stderr}");
+    let (code, stderr, _) = check("offset=(1, 2)");
+    assert_eq!(code, Some(2), "{stderr}");
+    assert!(
+        stderr.contains("expected a vector like (1, 2, 3)"),
+        "{stderr}"
+    );
+    let (code, stderr, _) = check("frame=2");
+    assert_eq!(code, Some(2), "{stderr}");
+    assert!(
+        stderr.contains("the script has no param named `frame`"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("did you mean `frames`?"), "{stderr}");
+}
+
+/// A wrong type given to `felt run --set` is found before the first statement runs, so a
+/// long script does not fail at its end.
+#[test]
+fn run_rejects_a_set_value_of_the_wrong_type_before_any_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let script = dir.path().join("late_param.felt");
+    std::fs::write(
+        &script,
+        "print(\"started\");\nparam float step = 0.01;\nprint(step);\n",
+    )
+    .unwrap();
+    let out = felt()
+        .args(["run", script.to_str().unwrap(), "--set", "step=fast"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        out.stdout.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+    assert!(String::from_utf8_lossy(&out.stderr).contains("expected a float, found `fast`"));
+}
+
 #[test]
 fn doc_lists_and_describes_builtins() {
     let index = felt().args(["doc"]).output().unwrap();

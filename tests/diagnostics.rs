@@ -48,6 +48,49 @@ const CASES: &[(&str, usize, usize, &str)] = &[
     ("negative_domain", 1, 1, "must be positive"),
     ("singular_matrix", 2, 14, "singular"),
     ("cycle_a", 1, 1, "import cycle"),
+    (
+        "unknown_keyword",
+        3,
+        46,
+        "`render` has no argument `samples`; did you mean `spp`?",
+    ),
+    (
+        "missing_camera",
+        2,
+        1,
+        "`render` is missing its argument `camera` (camera)",
+    ),
+    ("unknown_aov", 3, 63, "unknown AOV \"normals\""),
+    (
+        "unknown_shadows_mode",
+        3,
+        56,
+        "unknown shadows mode \"mrach\"; did you mean \"march\"?",
+    ),
+    (
+        "keyword_and_position",
+        1,
+        32,
+        "argument `lo` of `clamp` is given twice, by position and by keyword",
+    ),
+    (
+        "argument_of_wrong_type",
+        1,
+        27,
+        "argument `hi` of `clamp` must be float, found vector",
+    ),
+];
+
+/// The cases `felt check` must find without running anything: each is reported by the
+/// checker alone, at the same place as in a run.
+const CHECKED: &[&str] = &[
+    "unknown_keyword",
+    "missing_camera",
+    "unknown_aov",
+    "unknown_shadows_mode",
+    "keyword_and_position",
+    "argument_of_wrong_type",
+    "wrong_arity",
 ];
 
 #[test]
@@ -70,7 +113,13 @@ fn each_broken_script_gives_one_diagnostic_at_the_right_place() {
             continue;
         }
         let expected = format!(":{line}:{column}]");
-        if !outcome.rendered.contains(&expected) || !outcome.rendered.contains(phrase) {
+        // miette wraps long messages; compare with the whitespace flattened.
+        let flat = outcome
+            .rendered
+            .split_whitespace()
+            .collect::<Vec<_>>()
+            .join(" ");
+        if !flat.contains(&expected) || !flat.contains(phrase) {
             failures.push(format!(
                 "{name}: expected {expected} and `{phrase}` in:\n{}",
                 outcome.rendered
@@ -79,6 +128,30 @@ fn each_broken_script_gives_one_diagnostic_at_the_right_place() {
         insta::assert_snapshot!(*name, outcome.rendered);
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+#[test]
+fn call_errors_are_found_by_the_checker_before_any_work() {
+    for name in CHECKED {
+        let (_, line, column, phrase) = CASES.iter().find(|c| c.0 == *name).unwrap();
+        let path = Path::new("tests/scripts/errors").join(format!("{name}.felt"));
+        let mut session =
+            Session::new(Box::new(common::Captured::default())).unwrap_or_else(|_| panic!());
+        let units = session
+            .load(&path)
+            .unwrap_or_else(|_| panic!("{name} loads"));
+        let diagnostics = session.check(&units);
+        let rendered = diagnostic::render(&diagnostics, &session.sources.borrow(), false);
+        // miette wraps long messages; compare with the whitespace flattened.
+        let flat = rendered.split_whitespace().collect::<Vec<_>>().join(" ");
+        assert_eq!(diagnostics.len(), 1, "{name}: {rendered}");
+        assert!(
+            flat.contains(&format!(":{line}:{column}]")) && flat.contains(phrase),
+            "{name}: {rendered}"
+        );
+        // One form at most is shown, never the list of every form.
+        assert!(flat.matches("->").count() <= 1, "{name}: {rendered}");
+    }
 }
 
 #[test]

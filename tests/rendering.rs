@@ -57,9 +57,25 @@ fn render_options_are_checked_in_the_script_authors_terms() {
     assert!(out.exists());
     let no_camera = script(r#"render("x.exr", density = rho, width = 8, height = 6);"#);
     assert!(
-        !no_camera.ok && no_camera.rendered.contains("render needs a camera"),
+        !no_camera.ok
+            && no_camera
+                .rendered
+                .contains("`render` is missing its argument `camera` (camera)"),
         "{}",
         no_camera.rendered
+    );
+    // A mode known only at run time is checked there, in the same words as a literal.
+    let computed = script(
+        r#"string mode = "mar" + "hc";
+           render("x.exr", density = rho, camera = cam, shadows = mode);"#,
+    );
+    assert!(
+        !computed.ok
+            && computed
+                .rendered
+                .contains("unknown shadows mode \"marhc\"; did you mean \"march\"?"),
+        "{}",
+        computed.rendered
     );
     let bad_aov = script(r#"render("x.exr", density = rho, camera = cam, aovs = {"normals"});"#);
     assert!(

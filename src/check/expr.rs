@@ -5,7 +5,7 @@
 use super::Checker;
 use super::types::{self, Type, binary_result, unary_result, unify};
 use crate::diagnostic::{Diagnostic, Stage};
-use crate::interp::registry::{self, Resolution};
+use crate::interp::registry::{self, Culprit, Resolution};
 use crate::interp::suggest;
 use crate::syntax::ast::*;
 use crate::syntax::span::Span;
@@ -251,7 +251,7 @@ impl Checker<'_> {
             return sig.ret;
         }
         if registry::registry().get(&callee.name).is_some() {
-            return self.builtin_call(&callee.name, callee.span, span, args);
+            return self.builtin_call(&callee.name, span, args);
         }
         for a in args {
             self.expr(&a.value);
@@ -279,13 +279,7 @@ impl Checker<'_> {
         Type::Error
     }
 
-    pub(super) fn builtin_call(
-        &mut self,
-        name: &str,
-        name_span: Span,
-        span: Span,
-        args: &[Arg],
-    ) -> Type {
+    pub(super) fn builtin_call(&mut self, name: &str, span: Span, args: &[Arg]) -> Type {
         let builtin = registry::registry()
             .get(name)
             .expect("checked by the caller");
@@ -302,19 +296,46 @@ impl Checker<'_> {
             .map(|a| a.name.as_ref().map(|n| n.name.clone()))
             .collect();
         match registry::resolve(builtin, &types, &names) {
-            Resolution::Match { form, .. } => builtin.signatures[form].ret.clone(),
-            Resolution::Mismatch { message, arg, help } => {
-                let at = arg.map(|i| args[i].span).unwrap_or(span);
-                let d = self.error(Stage::Type, at, message);
-                d.help = help.or_else(|| {
-                    Some(format!(
-                        "`{}`: {}",
-                        builtin.forms().join(" | "),
-                        builtin.doc
-                    ))
-                });
-                let _ = name_span;
+            Resolution::Match { form, slots, .. } => {
+                let sig = &builtin.signatures[form];
+                for (slot, param) in slots.iter().zip(&sig.params) {
+                    if let Some(i) = *slot
+                        && param.choices.is_some()
+                    {
+                        self.literal_choices(param, &args[i].value);
+                    }
+                }
+                sig.ret.clone()
+            }
+            Resolution::Mismatch { message, at, help } => {
+                let d = self.error(Stage::Type, at.span(args, span), message);
+                if let Culprit::Keyword(_) = at {
+                    d.label = String::from("no such argument");
+                }
+                d.help = help;
                 Type::Error
+            }
+        }
+    }
+
+    /// Checks the string literals given for a parameter with a fixed set of values (a string,
+    /// or an array of them); other expressions are known only at run time, which checks them.
+    fn literal_choices(&mut self, param: &registry::Param, value: &Expr) {
+        let literals: Vec<(&str, Span)> = match &value.kind {
+            ExprKind::Str(s) => vec![(s.as_str(), value.span)],
+            ExprKind::Array(items) => items
+                .iter()
+                .filter_map(|item| match &item.kind {
+                    ExprKind::Str(s) => Some((s.as_str(), item.span)),
+                    _ => None,
+                })
+                .collect(),
+            _ => Vec::new(),
+        };
+        for (text, at) in literals {
+            if let Err(failure) = registry::check_choice(param, text) {
+                let d = self.error(Stage::Type, at, failure.message);
+                d.help = failure.help;
             }
         }
     }

@@ -204,7 +204,7 @@ impl Checker<'_> {
                         self.expr(&a.value);
                     }
                 } else {
-                    let found = self.builtin_call(ty.base.keyword(), ty.span, span, args);
+                    let found = self.builtin_call(ty.base.keyword(), span, args);
                     self.expect(span, &found, &declared, "constructor");
                 }
             }

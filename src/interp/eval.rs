@@ -219,14 +219,23 @@ impl Interpreter {
             .collect();
         let (form, slots, rest) = match registry::resolve(builtin, &types, &names) {
             Resolution::Match { form, slots, rest } => (form, slots, rest),
-            Resolution::Mismatch { message, arg, help } => {
-                let at = arg.map(|i| args[i].span).unwrap_or(span);
+            Resolution::Mismatch { message, at, help } => {
                 let mut f = Failure::new(message);
                 f.help = help;
-                return Err(self.error(at, f));
+                return Err(self.error(at.span(args, span), f));
             }
         };
         let sig = &builtin.signatures[form];
+        for (slot, param) in slots.iter().zip(&sig.params) {
+            if let Some(i) = *slot
+                && param.choices.is_some()
+            {
+                for text in strings_of(&values[i]) {
+                    registry::check_choice(param, text)
+                        .map_err(|f| self.error(args[i].value.span, f))?;
+                }
+            }
+        }
         let mut taken: Vec<Option<Value>> = values.into_iter().map(Some).collect();
         let converted = slots
             .iter()
@@ -340,5 +349,13 @@ fn index_value(base: &Value, i: i64) -> Result<Value, Failure> {
             "a {} cannot be indexed",
             other.type_of()
         ))),
+    }
+}
+
+/// The strings a string or string-array argument holds (none for any other value).
+fn strings_of(value: &Value) -> Vec<&str> {
+    match value {
+        Value::Array(items, _) => items.iter().filter_map(|v| v.as_str().ok()).collect(),
+        other => other.as_str().ok().into_iter().collect(),
     }
 }

@@ -39,15 +39,7 @@ impl Interpreter {
             } => {
                 let declared = Type::from_expr(ty);
                 let value = if *is_param && self.overrides.contains_key(&name.name) {
-                    let text = self.overrides[&name.name].clone();
-                    parse_override(&text, &declared).map_err(|message| {
-                        Diagnostic::error(
-                            Stage::Usage,
-                            name.span,
-                            format!("--set {}={}: {}", name.name, text, message),
-                        )
-                        .with_label("this param")
-                    })?
+                    override_value(name, &declared, &self.overrides[&name.name])?
                 } else {
                     match init {
                         DeclInit::Default => Value::default_of(&declared).ok_or_else(|| {
@@ -269,6 +261,19 @@ fn store(
         return Ok(());
     }
     store(&mut items[*index as usize], &elem_ty, rest, value, error_at)
+}
+
+/// The value `--set NAME=TEXT` gives the param declared as `name` of type `declared`, or the
+/// diagnostic at the declaration (shared by `felt check --set` and the run itself).
+pub fn override_value(name: &Ident, declared: &Type, text: &str) -> Result<Value, Diagnostic> {
+    parse_override(text, declared).map_err(|message| {
+        Diagnostic::error(
+            Stage::Usage,
+            name.span,
+            format!("--set {}={}: {}", name.name, text, message),
+        )
+        .with_label("this param")
+    })
 }
 
 /// Reads a `--set` value as the param's declared type.

@@ -13,9 +13,10 @@ pub mod builtins;
 mod eval;
 mod exec;
 
-pub use exec::parse_override;
+pub use exec::{override_value, parse_override};
 pub mod ops;
 pub mod registry;
+mod resolve;
 pub mod suggest;
 pub mod value;
 

@@ -18,6 +18,8 @@ use std::collections::BTreeMap;
 use std::fmt;
 use std::sync::OnceLock;
 
+pub use super::resolve::{Culprit, Resolution, check_choice, resolve};
+
 /// What a parameter accepts.
 #[derive(Clone, Debug, PartialEq)]
 pub enum ParamType {
@@ -53,6 +55,20 @@ pub struct Param {
     pub name: String,
     pub ty: ParamType,
     pub optional: bool,
+    /// The only values a string (or each string of an array) may take, when there is a
+    /// fixed set: checked on literals by `felt check` and on every value at run time.
+    pub choices: Option<Choices>,
+    /// Names users of other tools give this parameter (`samples` for `spp`), offered as
+    /// the fix when one is used as a keyword.
+    pub aliases: &'static [&'static str],
+}
+
+/// A parameter's fixed set of string values, and what one of them is called in a message
+/// ("shadows mode", "AOV").
+#[derive(Clone, Debug)]
+pub struct Choices {
+    pub noun: &'static str,
+    pub values: &'static [&'static str],
 }
 
 #[derive(Clone, Debug)]
@@ -230,6 +246,43 @@ impl Registry {
         assert!(previous.is_none(), "builtin `{name}` registered twice");
     }
 
+    /// Gives parameter `param` of every form of `builtin` a fixed set of string values.
+    /// Panics when there is no such parameter: the call is part of felt's source.
+    pub fn choices(
+        &mut self,
+        builtin: &str,
+        param: &str,
+        noun: &'static str,
+        values: &'static [&'static str],
+    ) {
+        for p in self.params_named(builtin, param) {
+            p.choices = Some(Choices { noun, values });
+        }
+    }
+
+    /// Records names other tools give parameter `param` of `builtin`, for the did-you-mean
+    /// of an unknown keyword.
+    pub fn aliases(&mut self, builtin: &str, param: &str, aliases: &'static [&'static str]) {
+        for p in self.params_named(builtin, param) {
+            p.aliases = aliases;
+        }
+    }
+
+    fn params_named(&mut self, builtin: &str, param: &str) -> Vec<&mut Param> {
+        let b = self
+            .builtins
+            .get_mut(builtin)
+            .unwrap_or_else(|| panic!("no builtin `{builtin}`"));
+        let params: Vec<&mut Param> = b
+            .signatures
+            .iter_mut()
+            .flat_map(|s| s.params.iter_mut())
+            .filter(|p| p.name == param)
+            .collect();
+        assert!(!params.is_empty(), "`{builtin}` has no parameter `{param}`");
+        params
+    }
+
     pub fn get(&self, name: &str) -> Option<&Builtin> {
         self.builtins.get(name)
     }
@@ -251,161 +304,6 @@ pub fn registry() -> &'static Registry {
         super::builtins::register_all(&mut r);
         r
     })
-}
-
-/// Result of matching call arguments against a builtin's signatures.
-pub enum Resolution {
-    /// Signature index and, for each parameter, which argument fills it (`None`: not given);
-    /// then the indices of the variadic arguments.
-    Match {
-        form: usize,
-        slots: Vec<Option<usize>>,
-        rest: Vec<usize>,
-    },
-    /// No form fits; the message says why, pointing at argument `arg` if there is one culprit.
-    Mismatch {
-        message: String,
-        arg: Option<usize>,
-        help: Option<String>,
-    },
-}
-
-/// Matches positional and keyword arguments (`names[i]` is the keyword of argument `i`, if
-/// any) against the builtin's forms.
-pub fn resolve(builtin: &Builtin, types: &[Type], names: &[Option<String>]) -> Resolution {
-    // The same keyword twice is wrong whatever the form, so it is said before trying them
-    // (otherwise a builtin with several forms could only answer "no form takes ...").
-    if let Some((arg, keyword)) = repeated_keyword(names) {
-        return Resolution::Mismatch {
-            message: format!("argument `{keyword}` of `{}` is given twice", builtin.name),
-            arg: Some(arg),
-            help: Some(format!("remove one of the two `{keyword} = ...`")),
-        };
-    }
-    let mut first_error = None;
-    let single = builtin.signatures.len() == 1;
-    for (form, sig) in builtin.signatures.iter().enumerate() {
-        match match_signature(builtin.name, sig, types, names) {
-            Ok((slots, rest)) => return Resolution::Match { form, slots, rest },
-            Err(e) => {
-                if first_error.is_none() {
-                    first_error = Some(e);
-                }
-            }
-        }
-    }
-    let (message, arg) = first_error.unwrap_or_else(|| (String::from("no forms"), None));
-    if single {
-        Resolution::Mismatch {
-            message,
-            arg,
-            help: None,
-        }
-    } else {
-        let shown: Vec<String> = types.iter().map(|t| t.to_string()).collect();
-        Resolution::Mismatch {
-            message: format!("no form of `{}` takes ({})", builtin.name, shown.join(", ")),
-            arg: None,
-            help: Some(format!("the forms are:\n{}", builtin.forms().join("\n"))),
-        }
-    }
-}
-
-/// The first keyword argument whose keyword an earlier argument already used: its index and
-/// the keyword.
-fn repeated_keyword(names: &[Option<String>]) -> Option<(usize, &str)> {
-    let mut seen = std::collections::HashSet::new();
-    names.iter().enumerate().find_map(|(i, name)| {
-        let name = name.as_deref()?;
-        (!seen.insert(name)).then_some((i, name))
-    })
-}
-
-type Matched = (Vec<Option<usize>>, Vec<usize>);
-
-fn match_signature(
-    name: &str,
-    sig: &Signature,
-    types: &[Type],
-    names: &[Option<String>],
-) -> Result<Matched, (String, Option<usize>)> {
-    let mut slots: Vec<Option<usize>> = vec![None; sig.params.len()];
-    let mut rest = Vec::new();
-    let mut position = 0;
-    for (i, ty) in types.iter().enumerate() {
-        match &names[i] {
-            None => {
-                if position < sig.params.len() {
-                    slots[position] = Some(i);
-                    position += 1;
-                } else if let Some(v) = &sig.variadic {
-                    if !v.accepts(ty) {
-                        return Err((
-                            format!("argument {} of `{name}` must be {v}, found {ty}", i + 1),
-                            Some(i),
-                        ));
-                    }
-                    rest.push(i);
-                } else {
-                    let most = sig.params.len();
-                    return Err((
-                        format!(
-                            "`{name}` takes {} argument{}, found {}",
-                            most,
-                            if most == 1 { "" } else { "s" },
-                            types.len()
-                        ),
-                        Some(i),
-                    ));
-                }
-            }
-            Some(keyword) => match sig.param_index(keyword) {
-                Some(p) if slots[p].is_some() => {
-                    return Err((
-                        format!("argument `{keyword}` of `{name}` is given twice"),
-                        Some(i),
-                    ));
-                }
-                Some(p) => slots[p] = Some(i),
-                None => {
-                    let known: Vec<&str> = sig.params.iter().map(|p| p.name.as_str()).collect();
-                    let hint = crate::interp::suggest::closest(keyword, known.iter().copied())
-                        .map(|s| format!(" (did you mean `{s}`?)"))
-                        .unwrap_or_default();
-                    return Err((
-                        format!("`{name}` has no parameter named `{keyword}`{hint}"),
-                        Some(i),
-                    ));
-                }
-            },
-        }
-    }
-    for (p, param) in sig.params.iter().enumerate() {
-        match slots[p] {
-            None if !param.optional => {
-                return Err((
-                    format!(
-                        "`{name}` needs at least {} argument{}, found {}",
-                        sig.required(),
-                        if sig.required() == 1 { "" } else { "s" },
-                        types.len()
-                    ),
-                    None,
-                ));
-            }
-            Some(i) if !param.ty.accepts(&types[i]) => {
-                return Err((
-                    format!(
-                        "argument `{}` of `{name}` must be {}, found {}",
-                        param.name, param.ty, types[i]
-                    ),
-                    Some(i),
-                ));
-            }
-            _ => {}
-        }
-    }
-    Ok((slots, rest))
 }
 
 /// Parses `name(type a, type b?, type...) -> ret`.
@@ -438,6 +336,8 @@ fn parse_form(form: &str) -> Result<(&str, Signature), String> {
                 name: pname.to_string(),
                 ty: parse_param_type(ty.trim())?,
                 optional,
+                choices: None,
+                aliases: &[],
             });
         }
     }
@@ -501,19 +401,6 @@ mod tests {
                 assert_eq!(name, b.name);
             }
         }
-    }
-
-    #[test]
-    fn a_keyword_given_twice_is_named_whatever_the_forms() {
-        let render = registry().get("render").unwrap();
-        assert!(render.signatures.len() > 1);
-        let types = [Type::Str, Type::ScalarField, Type::ScalarField];
-        let names = [None, Some("density".into()), Some("density".into())];
-        let Resolution::Mismatch { message, arg, .. } = resolve(render, &types, &names) else {
-            panic!("resolved")
-        };
-        assert_eq!(message, "argument `density` of `render` is given twice");
-        assert_eq!(arg, Some(2));
     }
 
     #[test]

@@ -21,7 +21,9 @@
 //! (`T_before − T_after = (1−ΔT)·W`), so a constant holdout of ½ halves colour and alpha alike.
 //! The lerp is the notes' form as written: where `T_h` falls along a ray, `T` is pulled towards
 //! `1 − T_h` and may rise (alpha then shrinks), while `W` keeps colour behind the holdout at 0.
-//! `T_L·L` is `lighting::Illumination`'s `S`, summed over lights, plus ambient.
+//! `T_L·L` is `lighting::Illumination`'s `S`, summed over lights, plus ambient. With an
+//! `albedo` the same update is single scattering: `C_d` is `albedo·color·κ/4π` and the
+//! ambient `4π·ambient` (`RenderSettings::albedo_scales`).
 //!
 //! The one key decision: rays are marched a tile (16×16 pixels × samples; smaller tiles at
 //! high sample counts) at a time, in lockstep: each round gathers the next sample of every
@@ -415,6 +417,13 @@ impl<'a> Worker<'a> {
                     DVec3::ONE
                 };
                 let mut total = frame.illumination.ambient;
+                let albedo = match s.albedo_scales() {
+                    None => albedo,
+                    Some((per_colour, per_ambient)) => {
+                        total *= per_ambient;
+                        albedo * per_colour
+                    }
+                };
                 for light in 0..lights {
                     total += b.scattered[light * m + j];
                 }

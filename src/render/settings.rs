@@ -128,6 +128,13 @@ pub struct RenderSettings {
     pub powder: Option<f64>,
     /// Unshadowed light from all around, added to every sample's illumination.
     pub ambient: DVec3,
+    /// Single-scattering albedo in [0, 1]. `None` is the course notes' colour model: `color`
+    /// is eq. 1.3's `C_d` and a lit opaque region shows `C_d·L/κ`. With an albedo the medium
+    /// scatters `σs = albedo·color·κ` of the `σt = κ` it extinguishes, the phase function
+    /// counts per steradian (isotropic `1/4π`) and `ambient` is the radiance of a uniform
+    /// sky, so `color` is a tint in [0, 1] and an opaque white region lit head-on shows
+    /// `albedo·L·p/2`, whatever κ.
+    pub albedo: Option<f64>,
     pub adaptive: Option<Adaptive>,
     pub shadows: Shadows,
     /// The box to march; `None` takes the density's bounds.
@@ -149,6 +156,7 @@ impl Default for RenderSettings {
             multiscatter: None,
             powder: None,
             ambient: DVec3::ZERO,
+            albedo: None,
             adaptive: None,
             shadows: Shadows::default(),
             bounds: None,
@@ -235,6 +243,11 @@ impl RenderSettings {
         if let Some(p) = self.powder {
             unit_interval("powder strength", p)?;
         }
+        if let Some(a) = self.albedo {
+            unit_interval("albedo", a).map_err(|e| {
+                e.with_help("albedo is the fraction of extinguished light that is scattered")
+            })?;
+        }
         if !self.ambient.is_finite() || self.ambient.min_element() < 0.0 {
             return Err(Failure::new(format!(
                 "ambient must be finite and non-negative, got {}",
@@ -269,6 +282,15 @@ impl RenderSettings {
         Ok(())
     }
 
+    /// With an albedo, what `color` and the ambient light are multiplied by so that the
+    /// march's colour update (eq. 1.3 with the phase relative to isotropic) becomes single
+    /// scattering with `σs = albedo·color·κ` and the phase per steradian: `albedo·κ/4π` and
+    /// `4π` (a uniform sky of radiance `ambient` scatters `σs·ambient`).
+    pub(crate) fn albedo_scales(&self) -> Option<(DVec3, f64)> {
+        let four_pi = 4.0 * std::f64::consts::PI;
+        self.albedo.map(|a| (self.kappa * (a / four_pi), four_pi))
+    }
+
     /// Kappa that is the same in all channels lets the march compute one exponential, not three.
     pub(crate) fn grey_kappa(&self) -> bool {
         self.kappa.x == self.kappa.y && self.kappa.y == self.kappa.z
@@ -300,6 +322,8 @@ mod tests {
             "eccentricity",
         );
         bad(|s| s.powder = Some(2.0), "powder");
+        bad(|s| s.albedo = Some(1.5), "albedo");
+        bad(|s| s.albedo = Some(f64::NAN), "albedo");
         bad(
             |s| {
                 s.adaptive = Some(Adaptive {

@@ -156,6 +156,12 @@ pub fn register(r: &mut Registry) {
             Ok(Value::Field(field::advect_with(&f, &u, &dt, order as u32, scheme, &resample)?))
         },
     );
+    r.choices(
+        "advect",
+        "scheme",
+        "advection scheme",
+        &["semilagrangian", "maccormack", "bfecc"],
+    );
     r.add(
         "warping",
         &[

@@ -108,6 +108,19 @@ pub fn register(r: &mut Registry) {
          (edge values in the border half cell: never below or above the samples, for densities)",
         cacheread,
     );
+    r.choices("cacheread", "interp", "interpolation", &["linear", "cubic"]);
+    r.choices(
+        "cacheread",
+        "derivative",
+        "derivative",
+        &["interpolant", "central"],
+    );
+    r.choices(
+        "cacheread",
+        "outside",
+        "outside mode",
+        &["background", "extrapolate", "hold"],
+    );
     r.add(
         "caches",
         &[

@@ -26,12 +26,12 @@ macro_rules! render_form {
     ($kappa:literal) => {
         concat!(
             "render(string path, scalarfield density, vectorfield color?, vectorfield emission?, ",
-            "camera camera?, light[] lights?, ",
+            "camera camera, light[] lights?, ",
             $kappa,
             " kappa?, float step?, int width?, int height?, int spp?, int seed?, ",
             "domain bounds?, float threshold?, float phase?, vector phase2?, scalarfield holdout?, ",
             "vector ambient?, int multiscatter?, bool adaptive?, string[] aovs?, string shadows?, ",
-            "float powder?, float shadowcell?) -> void"
+            "float powder?, float shadowcell?, float albedo?) -> void"
         )
     };
 }
@@ -58,6 +58,7 @@ const AOVS: usize = 20;
 const SHADOWS: usize = 21;
 const POWDER: usize = 22;
 const SHADOW_CELL: usize = 23;
+const ALBEDO: usize = 24;
 
 pub fn register(r: &mut Registry) {
     r.add(
@@ -108,6 +109,23 @@ pub fn register(r: &mut Registry) {
          OpenEXR image, or a PNG preview when path ends in .png",
         run_render,
     );
+    r.choices("render", "shadows", "shadows mode", &["cache", "march"]);
+    r.choices(
+        "render",
+        "aovs",
+        "AOV",
+        &["depth", "transmittance", "emission", "lights"],
+    );
+    // What other renderers call these options, so a TD's habit finds felt's word.
+    r.aliases("render", "spp", &["samples", "pixelsamples", "aa_samples"]);
+    r.aliases("render", "step", &["stepsize", "step_size", "volumestep"]);
+    r.aliases(
+        "render",
+        "kappa",
+        &["extinction", "densityscale", "density_scale"],
+    );
+    r.aliases("render", "width", &["resx", "xres"]);
+    r.aliases("render", "height", &["resy", "yres"]);
     r.add(
         "rendering",
         &["transmissivity(scalarfield density, light l, domain d, float kappa) -> scalarfield"],
@@ -231,6 +249,7 @@ fn run_render(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
     if let Some(p) = opt_float(&a, POWDER)? {
         settings.powder = Some(p);
     }
+    settings.albedo = opt_float(&a, ALBEDO)?;
     if let Some(Value::Bool(true)) = a.opt(ADAPTIVE) {
         let step = settings.step.ok_or_else(|| {
             Failure::new("adaptive stepping needs a step")

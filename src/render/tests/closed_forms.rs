@@ -270,3 +270,86 @@ fn aovs_add_up_to_the_beauty() {
         );
     }
 }
+
+#[test]
+fn albedo_slab_lit_from_behind_the_camera_matches_single_scattering() {
+    // A homogeneous slab of density ρ and thickness L with extinction σt = κρ and scattering
+    // σs = albedo·tint·κρ, lit by a distant light of irradiance E travelling along the view
+    // direction. The point at depth s is reached by the light through depth s and seen through
+    // depth s, and scatters at θ = π, so
+    //   C = ∫₀ᴸ σs·p(π)·E·e^{−2κρs} ds = albedo·tint·p(π)·E·(1 − e^{−2κρL})/2,
+    // with p per steradian: 1/4π isotropic; Henyey–Greenstein (1 − g²)/(4π(1 + 2g + g²)^{3/2})
+    // = (1 − g)/(4π(1 + g)²) at cosθ = −1.
+    //
+    // The march's error: a step of optical thickness x starting at depth τ₀ adds
+    // e^{−τ₀}(1 − e^{−x})·e^{−(τ₀ + x/2)} (camera transmittance, exact step opacity, light
+    // column at the midpoint, exact with marched shadows) where the integral gives
+    // e^{−2τ₀}(1 − e^{−2x})/2. Their ratio is 1/cosh(x/2), in [1 − x²/8, 1], so the pixel lies
+    // in [C·(1 − (κρΔs)²/8), C] up to the f32 image's rounding.
+    let (rho, kappa, thickness, irradiance, albedo) = (1.5, 1.25, 0.8, 3.0, 0.8);
+    let density = slab(1, DVec3::splat(rho), -0.4, 0.4);
+    let tint = DVec3::new(1.0, 0.5, 0.25);
+    let color = slab(3, tint, -0.4, 0.4);
+    let light = Light::distant(-DVec3::Z, DVec3::splat(irradiance)).unwrap();
+    let mut lit = scene(&density, vec![light]);
+    lit.color = Some(&color);
+    let four_pi = 4.0 * std::f64::consts::PI;
+    let beer = 1.0 - (-2.0 * kappa * rho * thickness).exp();
+    for (phase, p) in [
+        (Phase::Isotropic, 1.0 / four_pi),
+        (
+            Phase::HenyeyGreenstein { g: 0.3 },
+            0.7 / (four_pi * 1.3 * 1.3),
+        ),
+    ] {
+        let expected = tint * (albedo * p * irradiance * beer / 2.0);
+        let mut errors = Vec::new();
+        for step in [0.1, 0.05] {
+            let settings = RenderSettings {
+                kappa: DVec3::splat(kappa),
+                step: Some(step),
+                shadows: Shadows::March,
+                phase,
+                albedo: Some(albedo),
+                ..small(4, 4)
+            };
+            let image = render(&lit, &settings).unwrap();
+            let x = kappa * rho * step;
+            for pixel in &image.rgba {
+                for c in 0..3 {
+                    let (got, exact) = (pixel[c] as f64, expected[c]);
+                    let rounding = 1e-6 * exact;
+                    assert!(
+                        got <= exact + rounding && got >= exact * (1.0 - x * x / 8.0) - rounding,
+                        "{phase:?}, step {step}, channel {c}: {got} vs {exact}"
+                    );
+                }
+            }
+            errors.push(expected.x - image.rgba[5][0] as f64);
+        }
+        // Second order: halving the step quarters the error.
+        assert!(
+            errors[0] > 0.0 && errors[1] < 0.35 * errors[0],
+            "{errors:?}"
+        );
+    }
+    // Whatever κ, an opaque slab shows albedo·p·E/2: the extinction sets how deep the light
+    // goes, not how bright the medium is (the colour model's C_d·E/2κ dims as κ grows).
+    // The ray stops at transmittance 1e-3, leaving out e^{−2τ} < 1e-6 of the light.
+    let (kappa, step) = (400.0, 1e-4);
+    let thick = RenderSettings {
+        kappa: DVec3::splat(kappa),
+        step: Some(step),
+        shadows: Shadows::March,
+        albedo: Some(albedo),
+        ..small(2, 2)
+    };
+    let image = render(&lit, &thick).unwrap();
+    let opaque = albedo * irradiance / (2.0 * four_pi);
+    let x = kappa * rho * step;
+    let got = image.rgba[0][0] as f64;
+    assert!(
+        got <= opaque * (1.0 + 1e-6) && got >= opaque * (1.0 - x * x / 8.0 - 2e-6),
+        "{got} vs {opaque}"
+    );
+}

@@ -1,0 +1,427 @@
+//! Matching a call's arguments against a builtin's forms, and saying what is wrong when none
+//! fits. The checker and the interpreter both call it, so `felt check` and `felt run` report
+//! a bad call with the same words at the same place.
+//!
+//! The one key decision: when no form fits, each form is matched to the end and its problems
+//! counted, and the form with the fewest is the one the author meant. Its first problem is the
+//! message, pointing at the argument (or keyword) that did not fit, and the help shows that
+//! one form, never the whole list: a TD who wrote `render(..., samples = 4)` wants to read
+//! "`render` has no argument `samples`; did you mean `spp`?", not every form of `render`.
+
+use super::registry::{Builtin, Param, Signature, format_signature};
+use super::suggest;
+use crate::check::types::Type;
+use crate::failure::Failure;
+use crate::syntax::ast::Arg;
+use crate::syntax::span::Span;
+
+/// Result of matching call arguments against a builtin's signatures.
+pub enum Resolution {
+    /// Signature index and, for each parameter, which argument fills it (`None`: not given);
+    /// then the indices of the variadic arguments.
+    Match {
+        form: usize,
+        slots: Vec<Option<usize>>,
+        rest: Vec<usize>,
+    },
+    /// No form fits; the message says why, pointing at `at`.
+    Mismatch {
+        message: String,
+        at: Culprit,
+        help: Option<String>,
+    },
+}
+
+/// What a mismatch points at.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Culprit {
+    /// The call as a whole (an argument is missing).
+    Call,
+    /// Argument `i`, name and value.
+    Arg(usize),
+    /// The keyword of argument `i` (no parameter has that name).
+    Keyword(usize),
+}
+
+impl Culprit {
+    /// The span to show, given the call's arguments and the span of the whole call.
+    pub fn span(self, args: &[Arg], call: Span) -> Span {
+        match self {
+            Culprit::Call => call,
+            Culprit::Arg(i) => args.get(i).map_or(call, |a| a.span),
+            Culprit::Keyword(i) => args
+                .get(i)
+                .map(|a| a.name.as_ref().map_or(a.span, |n| n.span))
+                .unwrap_or(call),
+        }
+    }
+}
+
+/// One reason a form does not fit.
+struct Problem {
+    message: String,
+    at: Culprit,
+}
+
+/// Matches positional and keyword arguments (`names[i]` is the keyword of argument `i`, if
+/// any) against the builtin's forms.
+pub fn resolve(builtin: &Builtin, types: &[Type], names: &[Option<String>]) -> Resolution {
+    let name = builtin.name;
+    // Wrong whatever the form, so said before trying them (otherwise a builtin with several
+    // forms could only answer with the form that failed least).
+    if let Some((arg, keyword)) = repeated_keyword(names) {
+        return Resolution::Mismatch {
+            message: format!("argument `{keyword}` of `{name}` is given twice"),
+            at: Culprit::Arg(arg),
+            help: Some(format!("remove one of the two `{keyword} = ...`")),
+        };
+    }
+    if let Some(mismatch) = unknown_keyword(builtin, names) {
+        return mismatch;
+    }
+    let mut closest: Option<(usize, Vec<Problem>)> = None;
+    for (form, sig) in builtin.signatures.iter().enumerate() {
+        match match_signature(name, sig, types, names) {
+            Ok((slots, rest)) => return Resolution::Match { form, slots, rest },
+            Err(problems) => {
+                if closest
+                    .as_ref()
+                    .is_none_or(|(_, best)| problems.len() < best.len())
+                {
+                    closest = Some((form, problems));
+                }
+            }
+        }
+    }
+    let Some((form, mut problems)) = closest else {
+        return Resolution::Mismatch {
+            message: format!("`{name}` has no forms"),
+            at: Culprit::Call,
+            help: None,
+        };
+    };
+    let others = problems.len() - 1;
+    let first = problems.swap_remove(0);
+    let shown = format_signature(name, &builtin.signatures[form]);
+    let mut help = if builtin.signatures.len() == 1 {
+        format!("`{shown}`: {}", builtin.doc)
+    } else {
+        format!(
+            "the closest of its {} forms is `{shown}`",
+            builtin.signatures.len()
+        )
+    };
+    if others > 0 {
+        help.push_str(&format!(
+            " ({others} more argument{} do{} not fit it either)",
+            if others == 1 { "" } else { "s" },
+            if others == 1 { "es" } else { "" }
+        ));
+    }
+    Resolution::Mismatch {
+        message: first.message,
+        at: first.at,
+        help: Some(help),
+    }
+}
+
+/// The first keyword argument whose keyword an earlier argument already used: its index and
+/// the keyword.
+fn repeated_keyword(names: &[Option<String>]) -> Option<(usize, &str)> {
+    let mut seen = std::collections::HashSet::new();
+    names.iter().enumerate().find_map(|(i, name)| {
+        let name = name.as_deref()?;
+        (!seen.insert(name)).then_some((i, name))
+    })
+}
+
+/// A keyword that no form of the builtin has, with the likely one meant: a parameter of a
+/// similar spelling, or one that other tools' users call by that name (`samples` for `spp`).
+fn unknown_keyword(builtin: &Builtin, names: &[Option<String>]) -> Option<Resolution> {
+    let params = all_params(builtin);
+    let (i, keyword) = names.iter().enumerate().find_map(|(i, n)| {
+        let n = n.as_deref()?;
+        (!params.iter().any(|p| p.name == n)).then_some((i, n))
+    })?;
+    let meant = params
+        .iter()
+        .find(|p| p.aliases.contains(&keyword))
+        .map(|p| p.name.as_str())
+        .or_else(|| suggest::closest(keyword, params.iter().map(|p| p.name.as_str())));
+    let hint = meant
+        .map(|m| format!("; did you mean `{m}`?"))
+        .unwrap_or_default();
+    let listed: Vec<&str> = params.iter().map(|p| p.name.as_str()).collect();
+    Some(Resolution::Mismatch {
+        message: format!("`{}` has no argument `{keyword}`{hint}", builtin.name),
+        at: Culprit::Keyword(i),
+        help: Some(format!(
+            "the arguments of `{}` are {}",
+            builtin.name,
+            listed.join(", ")
+        )),
+    })
+}
+
+/// Every parameter of every form, each name once, in the order the forms give them.
+fn all_params(builtin: &Builtin) -> Vec<&Param> {
+    let mut params: Vec<&Param> = Vec::new();
+    for sig in &builtin.signatures {
+        for p in &sig.params {
+            if !params.iter().any(|q| q.name == p.name) {
+                params.push(p);
+            }
+        }
+    }
+    params
+}
+
+type Matched = (Vec<Option<usize>>, Vec<usize>);
+
+/// Fits the arguments to one form, or lists every reason it does not fit.
+fn match_signature(
+    name: &str,
+    sig: &Signature,
+    types: &[Type],
+    names: &[Option<String>],
+) -> Result<Matched, Vec<Problem>> {
+    let mut slots: Vec<Option<usize>> = vec![None; sig.params.len()];
+    let mut rest = Vec::new();
+    let mut problems = Vec::new();
+    let mut position = 0;
+    let mut overflow = false;
+    for (i, ty) in types.iter().enumerate() {
+        match &names[i] {
+            None if position < sig.params.len() => {
+                slots[position] = Some(i);
+                position += 1;
+            }
+            None => match &sig.variadic {
+                Some(v) if v.accepts(ty) => rest.push(i),
+                Some(v) => problems.push(Problem {
+                    message: format!("argument {} of `{name}` must be {v}, found {ty}", i + 1),
+                    at: Culprit::Arg(i),
+                }),
+                None if !overflow => {
+                    overflow = true;
+                    let most = sig.params.len();
+                    problems.push(Problem {
+                        message: format!(
+                            "`{name}` takes {most} argument{}, found {}",
+                            plural(most),
+                            types.len()
+                        ),
+                        at: Culprit::Arg(i),
+                    });
+                }
+                None => {}
+            },
+            Some(keyword) => match sig.param_index(keyword) {
+                Some(p) if slots[p].is_some() => problems.push(Problem {
+                    message: format!(
+                        "argument `{keyword}` of `{name}` is given twice, by position and by keyword"
+                    ),
+                    at: Culprit::Arg(i),
+                }),
+                Some(p) => slots[p] = Some(i),
+                None => problems.push(Problem {
+                    message: format!("this form of `{name}` has no argument `{keyword}`"),
+                    at: Culprit::Keyword(i),
+                }),
+            },
+        }
+    }
+    for (param, slot) in sig.params.iter().zip(&slots) {
+        match *slot {
+            None if !param.optional => problems.push(Problem {
+                message: format!(
+                    "`{name}` is missing its argument `{}` ({})",
+                    param.name, param.ty
+                ),
+                at: Culprit::Call,
+            }),
+            Some(i) if !param.ty.accepts(&types[i]) => problems.push(Problem {
+                message: format!(
+                    "argument `{}` of `{name}` must be {}, found {}",
+                    param.name, param.ty, types[i]
+                ),
+                at: Culprit::Arg(i),
+            }),
+            _ => {}
+        }
+    }
+    if problems.is_empty() {
+        Ok((slots, rest))
+    } else {
+        Err(problems)
+    }
+}
+
+fn plural(n: usize) -> &'static str {
+    if n == 1 { "" } else { "s" }
+}
+
+/// Checks a string argument against its parameter's fixed set of values, if it has one.
+pub fn check_choice(param: &Param, value: &str) -> Result<(), Failure> {
+    let Some(choices) = &param.choices else {
+        return Ok(());
+    };
+    if choices.values.contains(&value) {
+        return Ok(());
+    }
+    let hint = suggest::closest(value, choices.values.iter().copied())
+        .map(|s| format!("; did you mean \"{s}\"?"))
+        .unwrap_or_default();
+    let quoted: Vec<String> = choices.values.iter().map(|v| format!("\"{v}\"")).collect();
+    let listed = match quoted.split_last() {
+        Some((last, [])) => last.clone(),
+        Some((last, init)) => format!("{} or {last}", init.join(", ")),
+        None => String::new(),
+    };
+    Err(
+        Failure::new(format!("unknown {} \"{value}\"{hint}", choices.noun))
+            .with_help(format!("`{}` takes {listed}", param.name)),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::interp::registry::registry;
+
+    fn mismatch(
+        builtin: &str,
+        types: &[Type],
+        names: &[Option<&str>],
+    ) -> (String, Culprit, String) {
+        let builtin = registry().get(builtin).unwrap();
+        let names: Vec<Option<String>> = names.iter().map(|n| n.map(String::from)).collect();
+        match resolve(builtin, types, &names) {
+            Resolution::Mismatch { message, at, help } => (message, at, help.unwrap_or_default()),
+            Resolution::Match { .. } => panic!("resolved"),
+        }
+    }
+
+    #[test]
+    fn a_keyword_given_twice_is_named_whatever_the_forms() {
+        let render = registry().get("render").unwrap();
+        assert!(render.signatures.len() > 1);
+        let (message, at, _) = mismatch(
+            "render",
+            &[Type::Str, Type::ScalarField, Type::ScalarField],
+            &[None, Some("density"), Some("density")],
+        );
+        assert_eq!(message, "argument `density` of `render` is given twice");
+        assert_eq!(at, Culprit::Arg(2));
+    }
+
+    #[test]
+    fn an_unknown_keyword_is_named_with_the_one_meant() {
+        let types = [Type::Str, Type::ScalarField, Type::Camera, Type::Int];
+        let (message, at, help) = mismatch(
+            "render",
+            &types,
+            &[None, None, Some("camera"), Some("samples")],
+        );
+        assert_eq!(
+            message,
+            "`render` has no argument `samples`; did you mean `spp`?"
+        );
+        assert_eq!(at, Culprit::Keyword(3));
+        assert!(help.contains("spp"), "{help}");
+        assert!(!help.contains("->"), "no form is listed: {help}");
+        let (message, _, _) = mismatch(
+            "render",
+            &types,
+            &[None, None, Some("camera"), Some("stpe")],
+        );
+        assert_eq!(
+            message,
+            "`render` has no argument `stpe`; did you mean `step`?"
+        );
+        let (message, _, _) = mismatch(
+            "render",
+            &types,
+            &[None, None, Some("camera"), Some("zzzzzz")],
+        );
+        assert_eq!(message, "`render` has no argument `zzzzzz`");
+    }
+
+    #[test]
+    fn the_form_that_almost_fits_is_the_one_shown() {
+        // Three forms of `clamp`-like arity; the vector argument fits no form, and the float
+        // form fails on it alone.
+        let (message, at, help) = mismatch(
+            "clamp",
+            &[Type::Float, Type::Float, Type::Vector],
+            &[None, None, None],
+        );
+        assert_eq!(
+            message,
+            "argument `hi` of `clamp` must be float, found vector"
+        );
+        assert_eq!(at, Culprit::Arg(2));
+        assert_eq!(
+            help,
+            "the closest of its 2 forms is `clamp(float x, float lo, float hi) -> float`"
+        );
+        // A field in first place: only the field form is one argument off.
+        let (message, _, help) = mismatch(
+            "clamp",
+            &[Type::ScalarField, Type::Float, Type::Vector],
+            &[None, None, None],
+        );
+        assert_eq!(
+            message,
+            "argument `hi` of `clamp` must be scalarfield, found vector"
+        );
+        assert!(help.contains("clamp(scalarfield x"), "{help}");
+    }
+
+    #[test]
+    fn a_missing_argument_is_named() {
+        let (message, at, _) = mismatch("clamp", &[Type::Float, Type::Float], &[None, None]);
+        assert_eq!(message, "`clamp` is missing its argument `hi` (float)");
+        assert_eq!(at, Culprit::Call);
+        let (message, _, _) = mismatch(
+            "render",
+            &[Type::Str, Type::ScalarField],
+            &[None, Some("density")],
+        );
+        assert_eq!(
+            message,
+            "`render` is missing its argument `camera` (camera)"
+        );
+    }
+
+    #[test]
+    fn a_positional_and_a_keyword_for_the_same_parameter_is_named() {
+        let (message, at, _) = mismatch(
+            "clamp",
+            &[Type::Float, Type::Float, Type::Float, Type::Float],
+            &[None, None, None, Some("lo")],
+        );
+        assert_eq!(
+            message,
+            "argument `lo` of `clamp` is given twice, by position and by keyword"
+        );
+        assert_eq!(at, Culprit::Arg(3));
+    }
+
+    #[test]
+    fn a_choice_outside_its_set_is_named_with_the_set() {
+        let render = registry().get("render").unwrap();
+        let shadows =
+            &render.signatures[0].params[render.signatures[0].param_index("shadows").unwrap()];
+        assert!(check_choice(shadows, "march").is_ok());
+        let failure = check_choice(shadows, "mrach").unwrap_err();
+        assert_eq!(
+            failure.message,
+            "unknown shadows mode \"mrach\"; did you mean \"march\"?"
+        );
+        assert_eq!(
+            failure.help.as_deref(),
+            Some("`shadows` takes \"cache\" or \"march\"")
+        );
+    }
+}
