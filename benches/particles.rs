@@ -39,7 +39,9 @@ fn maps() -> Vec<CompiledField> {
         .iter()
         .map(|(name, c, _)| {
             // Thesis order a b c d | e f g h | k l m n, z passed through.
-            let pre = [c[0], c[1], 0.0, c[2], c[3], c[4], 0.0, c[5], 0.0, 0.0, 1.0, 0.0];
+            let pre = [
+                c[0], c[1], 0.0, c[2], c[3], c[4], 0.0, c[5], 0.0, 0.0, 1.0, 0.0,
+            ];
             let affine = felt::particles::flame::affine_from_coefficients(&pre).unwrap();
             let f = felt::particles::flame::flame(name, &[], Some(affine), None).unwrap();
             CompiledField::prepared(&f).unwrap()
@@ -48,7 +50,11 @@ fn maps() -> Vec<CompiledField> {
 }
 
 fn settings(fields: &[CompiledField]) -> Settings<'_> {
-    let colors = [DVec3::new(1.0, 0.6, 0.3), DVec3::new(0.3, 0.5, 1.0), DVec3::new(0.9, 0.9, 1.0)];
+    let colors = [
+        DVec3::new(1.0, 0.6, 0.3),
+        DVec3::new(0.3, 0.5, 1.0),
+        DVec3::new(0.9, 0.9, 1.0),
+    ];
     Settings {
         maps: fields
             .iter()
@@ -123,7 +129,9 @@ fn rates() {
     let fields = maps();
     let n = 4_000_000;
     println!("## Dots per second (flame of 3 xforms, one guide, {n} dots)\n");
-    println!("| threads | generated (M dots/s) | splatted, trilinear (M dots/s) | splatted, nearest (M dots/s) |");
+    println!(
+        "| threads | generated (M dots/s) | splatted, trilinear (M dots/s) | splatted, nearest (M dots/s) |"
+    );
     println!("|---|---|---|---|");
     let d = domain(512);
     for threads in [1, 2] {
@@ -237,7 +245,11 @@ fn genome(quality: usize, width: usize, height: usize) -> String {
 }
 
 fn against_flam3() {
-    if Command::new("flam3-render").arg("--version").output().is_err() {
+    if Command::new("flam3-render")
+        .arg("--version")
+        .output()
+        .is_err()
+    {
         println!("flam3-render is not installed: skipping the comparison.");
         return;
     }
@@ -247,8 +259,13 @@ fn against_flam3() {
     let dir = tempfile::tempdir().unwrap();
     let flame = dir.path().join("bench.flam3");
     std::fs::write(&flame, genome(quality, width, height)).unwrap();
-    println!("## felt's chaos game against flam3-render ({} M iterations, 3 xforms, 640×360)\n", iterations / 1_000_000);
-    println!("| threads | flam3-render wall (s) | flam3 CPU (s) | felt generate + splat wall (s) | felt CPU (s) | felt / flam3, wall | felt / flam3, CPU |");
+    println!(
+        "## felt's chaos game against flam3-render ({} M iterations, 3 xforms, 640×360)\n",
+        iterations / 1_000_000
+    );
+    println!(
+        "| threads | flam3-render wall (s) | flam3 CPU (s) | felt generate + splat wall (s) | felt CPU (s) | felt / flam3, wall | felt / flam3, CPU |"
+    );
     println!("|---|---|---|---|---|---|---|");
     let fields = maps();
     for threads in [1, 2] {
@@ -262,7 +279,10 @@ fn against_flam3() {
             .unwrap();
         let (flam3_s, flam3_cpu) = (t.elapsed().as_secs_f64(), cpu_seconds(true) - cpu);
         if !out.status.success() {
-            println!("flam3-render failed: {}", String::from_utf8_lossy(&out.stderr));
+            println!(
+                "flam3-render failed: {}",
+                String::from_utf8_lossy(&out.stderr)
+            );
             return;
         }
         let (felt_s, felt_cpu) = pool(threads, || {
@@ -283,7 +303,9 @@ fn against_flam3() {
 
 fn main() {
     rates();
-    println!("## End to end (generate, splat count and colour into 768×768×192 cells, render 1280×720)\n");
+    println!(
+        "## End to end (generate, splat count and colour into 768×768×192 cells, render 1280×720)\n"
+    );
     println!("| dots | generate (s) | splat (s) | render (s) | total (s) | peak memory (MiB) |");
     println!("|---|---|---|---|---|---|");
     end_to_end(10_000_000);

@@ -119,7 +119,15 @@ pub fn generate(
         .zip(split(&mut colors, &lengths))
         .zip(blocks.par_iter())
         .map(|((p, c), block)| {
-            run_block(&guides[block.guide], block, seed, settings, &cumulative, p, c)
+            run_block(
+                &guides[block.guide],
+                block,
+                seed,
+                settings,
+                &cumulative,
+                p,
+                c,
+            )
         })
         .collect::<Outcome<_>>()?;
     let restarts = restarts.iter().sum();
@@ -196,7 +204,10 @@ fn run_block(
         let mut shift: Vec<[f64; 3]> = Vec::new();
         if let Some(d) = displace.as_mut() {
             at_points(d.as_mut(), 3, &gather, &mut values);
-            shift.extend((0..active.len()).map(|n| [0, 1, 2].map(|c| settings.amount * values[n * 3 + c] as f64)));
+            shift.extend(
+                (0..active.len())
+                    .map(|n| [0, 1, 2].map(|c| settings.amount * values[n * 3 + c] as f64)),
+            );
         }
         let noise_color = match tint.as_mut() {
             Some(t) => {

@@ -156,8 +156,10 @@ pub fn variation(name: &str, params: &[f64]) -> Outcome<Field> {
         let hint = crate::interp::suggest::closest(name, NAMES.iter().copied())
             .map(|s| format!("did you mean \"{s}\"? "))
             .unwrap_or_default();
-        return Err(Failure::new(format!("there is no flame variation \"{name}\""))
-            .with_help(format!("{hint}the variations are {}", NAMES.join(", "))));
+        return Err(
+            Failure::new(format!("there is no flame variation \"{name}\""))
+                .with_help(format!("{hint}the variations are {}", NAMES.join(", "))),
+        );
     }
     let wanted = default_params(name).len();
     if params.len() != wanted {
@@ -225,7 +227,11 @@ pub fn variation(name: &str, params: &[f64]) -> Outcome<Field> {
             let pr = k(PI).mul(&r)?;
             let a = theta.mul(&one_over_pi)?;
             let a2 = theta2.mul(&one_over_pi)?;
-            vec3(&a.mul(&sin(&pr)?)?, &a.mul(&cos(&pr)?)?, &a2.mul(&cos(&pr)?)?)?
+            vec3(
+                &a.mul(&sin(&pr)?)?,
+                &a.mul(&cos(&pr)?)?,
+                &a2.mul(&cos(&pr)?)?,
+            )?
         }
         "spiral" => {
             let re = r.add(&k(EPS))?;

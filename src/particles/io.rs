@@ -257,7 +257,9 @@ fn ply_header(bytes: &[u8]) -> Outcome<Header> {
                 })
             }
             ["element", name, n] => {
-                let n: usize = n.parse().map_err(|_| bad("the count is not a whole number"))?;
+                let n: usize = n
+                    .parse()
+                    .map_err(|_| bad("the count is not a whole number"))?;
                 if *name == "vertex" {
                     if count.is_some() {
                         return Err(bad("a second vertex element"));
@@ -299,7 +301,10 @@ fn find(haystack: &[u8], needle: &[u8]) -> Option<usize> {
 fn read_csv(bytes: &[u8]) -> Outcome<Particles> {
     let text =
         std::str::from_utf8(bytes).map_err(|_| Failure::new("this CSV file is not UTF-8 text"))?;
-    let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty());
     let (_, header) = lines
         .next()
         .ok_or_else(|| Failure::new("this CSV file is empty"))?;

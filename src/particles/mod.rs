@@ -230,10 +230,8 @@ pub fn check_name(name: &str) -> Outcome<()> {
     if ok {
         Ok(())
     } else {
-        Err(Failure::new(format!(
-            "\"{name}\" is not an attribute name"
-        ))
-        .with_help("use letters, digits and _, starting with a letter"))
+        Err(Failure::new(format!("\"{name}\" is not an attribute name"))
+            .with_help("use letters, digits and _, starting with a letter"))
     }
 }
 

@@ -64,7 +64,12 @@ fn kernel(s2: f64) -> (f64, f64) {
 }
 
 impl PointField {
-    pub fn new(particles: &Particles, attribute: &str, radius: f64, blend: Blend) -> Outcome<PointField> {
+    pub fn new(
+        particles: &Particles,
+        attribute: &str,
+        radius: f64,
+        blend: Blend,
+    ) -> Outcome<PointField> {
         if !(radius.is_finite() && radius > 0.0) {
             return Err(Failure::new(format!(
                 "pointfield radius must be a positive length, found {radius}"
@@ -107,7 +112,10 @@ impl PointField {
             bins,
             bounds,
             identity: crate::grid::next_identity(),
-            label: format!("pointfield of \"{attribute}\" over {} points", particles.len()),
+            label: format!(
+                "pointfield of \"{attribute}\" over {} points",
+                particles.len()
+            ),
         })
     }
 

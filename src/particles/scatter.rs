@@ -46,8 +46,10 @@ pub fn scatter(
         })
         .collect();
     if live.is_empty() {
-        return Err(Failure::new("the level set is nowhere positive inside the region")
-            .with_help("level sets are positive inside; check its sign and the region"));
+        return Err(
+            Failure::new("the level set is nowhere positive inside the region")
+                .with_help("level sets are positive inside; check its sign and the region"),
+        );
     }
     let mut positions: Vec<[f32; 3]> = Vec::with_capacity(count);
     let mut drawn = 0usize;

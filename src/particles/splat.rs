@@ -99,8 +99,14 @@ impl Indexer {
     }
 
     /// The cells and weights a particle at `p` writes, or `None` outside the domain.
-    fn stencil(&self, p: [f32; 3], kernel: Kernel, out: &mut [([usize; 3], f64); 8]) -> Option<usize> {
-        let local = self.to_index * (DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) - self.origin);
+    fn stencil(
+        &self,
+        p: [f32; 3],
+        kernel: Kernel,
+        out: &mut [([usize; 3], f64); 8],
+    ) -> Option<usize> {
+        let local =
+            self.to_index * (DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) - self.origin);
         let u = local.to_array();
         for a in 0..3 {
             if !(u[a] >= 0.0 && u[a] < self.cells[a] as f64) {
@@ -126,7 +132,13 @@ impl Indexer {
                     hi[a] = (base as i64 + 1).clamp(0, last) as usize;
                 }
                 for (n, slot) in out.iter_mut().enumerate() {
-                    let pick = |a: usize| if (n >> a) & 1 == 1 { (hi[a], f[a]) } else { (lo[a], 1.0 - f[a]) };
+                    let pick = |a: usize| {
+                        if (n >> a) & 1 == 1 {
+                            (hi[a], f[a])
+                        } else {
+                            (lo[a], 1.0 - f[a])
+                        }
+                    };
                     let (x, wx) = pick(0);
                     let (y, wy) = pick(1);
                     let (z, wz) = pick(2);
@@ -180,7 +192,9 @@ pub fn splat(
     };
     let n = particles.len();
     // Pass 1: which bricks are touched, how many particles are outside, the sums.
-    let touched: Vec<AtomicBool> = (0..bricks.total()).map(|_| AtomicBool::new(false)).collect();
+    let touched: Vec<AtomicBool> = (0..bricks.total())
+        .map(|_| AtomicBool::new(false))
+        .collect();
     let chunks: Vec<(u64, [f64; 3], f64)> = (0..n.div_ceil(CHUNK))
         .into_par_iter()
         .map(|c| {
@@ -217,7 +231,9 @@ pub fn splat(
     }
     report.splatted = n as u64 - report.outside;
     if !magnitude.is_finite() {
-        return Err(Failure::new("the splatted values add up to more than a float can hold"));
+        return Err(Failure::new(
+            "the splatted values add up to more than a float can hold",
+        ));
     }
     // The largest power of two that keeps the sum of every |value| below 2^62.
     let scale = if magnitude > 0.0 {
@@ -233,8 +249,11 @@ pub fn splat(
     let sums: Vec<Option<Box<[AtomicI64]>>> = touched
         .iter()
         .map(|t| {
-            t.load(Ordering::Relaxed)
-                .then(|| (0..BRICK_CELLS * width).map(|_| AtomicI64::new(0)).collect())
+            t.load(Ordering::Relaxed).then(|| {
+                (0..BRICK_CELLS * width)
+                    .map(|_| AtomicI64::new(0))
+                    .collect()
+            })
         })
         .collect();
     // Pass 2: add each contribution in fixed point.
@@ -283,10 +302,11 @@ pub fn splat(
             if (0..3).any(|a| cell[a] >= cells[a]) {
                 continue;
             }
-            let before: Vec<f64> = match previous.and_then(|p| p.value_at_cell(cell[0], cell[1], cell[2])) {
-                Some(v) => v.iter().map(|&x| x as f64).collect(),
-                None => background.to_vec(),
-            };
+            let before: Vec<f64> =
+                match previous.and_then(|p| p.value_at_cell(cell[0], cell[1], cell[2])) {
+                    Some(v) => v.iter().map(|&x| x as f64).collect(),
+                    None => background.to_vec(),
+                };
             for a in 0..width {
                 let added = sum[local * width + a].load(Ordering::Relaxed) as f64 / scale;
                 value[a] = (before[a] + added) as f32;

@@ -94,7 +94,11 @@ fn hard_points() -> Vec<DVec3> {
             points.push(axis * s);
         }
     }
-    points.extend([DVec3::splat(1e6), DVec3::splat(-1e6), DVec3::new(1e6, -1e6, 1e6)]);
+    points.extend([
+        DVec3::splat(1e6),
+        DVec3::splat(-1e6),
+        DVec3::new(1e6, -1e6, 1e6),
+    ]);
     points
 }
 
@@ -109,7 +113,10 @@ fn every_variation_is_finite_at_the_origin_on_the_axes_and_far_away() {
             assert!(v.is_finite(), "{name} at {p} is {v} in f64");
             let mut out = [0f32; 3];
             eval.eval_f32(&[p.x], &[p.y], &[p.z], &mut out);
-            assert!(out.iter().all(|c| c.is_finite()), "{name} at {p} is {out:?} in f32");
+            assert!(
+                out.iter().all(|c| c.is_finite()),
+                "{name} at {p} is {out:?} in f32"
+            );
         }
     }
 }
@@ -130,19 +137,34 @@ fn bent_and_julia_follow_their_cases() {
     let p = DVec3::new(0.4, -0.3, 0.2);
     let v = vector_at("julia", p);
     let (t, t2) = (p.x.atan2(p.y), p.x.atan2(p.z));
-    let principal = DVec3::new((t / 2.0).cos(), (t / 2.0).sin(), (t2 / 2.0).sin()) * p.length().sqrt();
-    assert!((v - principal).length() < 1e-12 || (v + principal).length() < 1e-12, "{v}");
+    let principal =
+        DVec3::new((t / 2.0).cos(), (t / 2.0).sin(), (t2 / 2.0).sin()) * p.length().sqrt();
+    assert!(
+        (v - principal).length() < 1e-12 || (v + principal).length() < 1e-12,
+        "{v}"
+    );
 }
 
 #[test]
 fn affine_coefficients_are_rows_with_translation_last() {
-    let c = [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0, 11.0, 12.0];
+    let c = [
+        1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0, 11.0, 12.0,
+    ];
     let (m, t) = flame::affine_from_coefficients(&c).unwrap();
     let p = DVec3::new(1.0, -1.0, 2.0);
     let q = m * p + t;
-    assert_eq!(q, DVec3::new(1.0 - 2.0 + 6.0 + 4.0, 5.0 - 6.0 + 14.0 + 8.0, 9.0 - 10.0 + 22.0 + 12.0));
+    assert_eq!(
+        q,
+        DVec3::new(
+            1.0 - 2.0 + 6.0 + 4.0,
+            5.0 - 6.0 + 14.0 + 8.0,
+            9.0 - 10.0 + 22.0 + 12.0
+        )
+    );
     let f = flame::flame("linear", &[], Some((m, t)), Some((m, t))).unwrap();
-    let FieldValue::Vector(v) = probe(&f, p).unwrap() else { panic!() };
+    let FieldValue::Vector(v) = probe(&f, p).unwrap() else {
+        panic!()
+    };
     assert_eq!(v, m * q + t);
 }
 
@@ -191,7 +213,11 @@ fn levy_walk_at_zero_magnitude_is_finite() {
     // One step by hand: blend, then divide by mag^q.
     let (mut a, mut b) = (Stream::new(3, 3), Stream::new(3, 3));
     let x = [0.5, -0.25, 0.125];
-    let got = Walk::Levy { epsilon: 0.4, q: 0.75 }.step(x, &mut a);
+    let got = Walk::Levy {
+        epsilon: 0.4,
+        q: 0.75,
+    }
+    .step(x, &mut a);
     let v = b.cube();
     let y: Vec<f64> = (0..3).map(|k| 0.4 * x[k] + 0.6 * v[k]).collect();
     let mag: f64 = y.iter().map(|c| c * c).sum();
@@ -214,7 +240,14 @@ fn random_particles(n: usize, seed: u64, lo: f64, hi: f64) -> Particles {
 }
 
 fn unit_domain(cells: f64) -> Domain {
-    Domain::with_cells(DVec3::splat(-1.0), DVec3::splat(2.0), DVec3::ZERO, 2.0 / cells, 2.0 / cells).unwrap()
+    Domain::with_cells(
+        DVec3::splat(-1.0),
+        DVec3::splat(2.0),
+        DVec3::ZERO,
+        2.0 / cells,
+        2.0 / cells,
+    )
+    .unwrap()
 }
 
 fn cache_sum(cache: &Cache) -> [f64; 3] {
@@ -228,7 +261,10 @@ fn cache_sum(cache: &Cache) -> [f64; 3] {
 }
 
 fn cache_bits(cache: &Cache) -> Vec<([usize; 3], Vec<u32>)> {
-    cache.cells().map(|(c, v)| (c, v.iter().map(|x| x.to_bits()).collect())).collect()
+    cache
+        .cells()
+        .map(|(c, v)| (c, v.iter().map(|x| x.to_bits()).collect()))
+        .collect()
 }
 
 #[test]
@@ -237,13 +273,25 @@ fn splatting_preserves_the_total_for_both_kernels() {
     let domain = unit_domain(20.0);
     for kernel in [Kernel::Trilinear, Kernel::Nearest] {
         let masses = set.floats("mass").unwrap();
-        let (cache, report) = splat(&set, Deposit::Float(masses), kernel, &domain, &[0.0], None).unwrap();
+        let (cache, report) =
+            splat(&set, Deposit::Float(masses), kernel, &domain, &[0.0], None).unwrap();
         let want: f64 = masses.iter().map(|&m| m as f64).sum();
         assert_eq!(report.outside, 0);
         let got = cache_sum(&cache)[0];
-        assert!(((got - want) / want).abs() < 1e-6, "{kernel:?}: {got} vs {want}");
+        assert!(
+            ((got - want) / want).abs() < 1e-6,
+            "{kernel:?}: {got} vs {want}"
+        );
         let colors = set.vectors("Cd").unwrap();
-        let (cache, _) = splat(&set, Deposit::Vector(colors), kernel, &domain, &[0.0; 3], None).unwrap();
+        let (cache, _) = splat(
+            &set,
+            Deposit::Vector(colors),
+            kernel,
+            &domain,
+            &[0.0; 3],
+            None,
+        )
+        .unwrap();
         let got = cache_sum(&cache);
         for c in 0..3 {
             let want: f64 = colors.iter().map(|v| v[c] as f64).sum();
@@ -270,7 +318,15 @@ fn a_trilinear_splat_spreads_by_the_trilinear_weights() {
     let (cache, _) = splat(&set, Deposit::One, Kernel::Trilinear, &domain, &[0.0], None).unwrap();
     assert_eq!(cache.value_at_cell(0, 0, 0).unwrap()[0], 1.0);
     // Splatting again accumulates onto the cache.
-    let (again, report) = splat(&set, Deposit::One, Kernel::Nearest, &domain, &[0.0], Some(&cache)).unwrap();
+    let (again, report) = splat(
+        &set,
+        Deposit::One,
+        Kernel::Nearest,
+        &domain,
+        &[0.0],
+        Some(&cache),
+    )
+    .unwrap();
     assert_eq!(again.value_at_cell(0, 0, 0).unwrap()[0], 2.0);
     assert_eq!(report.splatted, 1);
 }
@@ -279,13 +335,18 @@ fn a_trilinear_splat_spreads_by_the_trilinear_weights() {
 fn particles_outside_the_domain_are_counted_not_splatted() {
     let domain = unit_domain(8.0);
     let set = Particles::new(vec![[0.0, 0.0, 0.0], [5.0, 0.0, 0.0], [0.0, -1.5, 0.0]]);
-    let (cache, report) = splat(&set, Deposit::One, Kernel::Trilinear, &domain, &[0.0], None).unwrap();
+    let (cache, report) =
+        splat(&set, Deposit::One, Kernel::Trilinear, &domain, &[0.0], None).unwrap();
     assert_eq!((report.splatted, report.outside), (1, 2));
     assert!((cache_sum(&cache)[0] - 1.0).abs() < 1e-6);
 }
 
 fn in_pool<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
-    rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(f)
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+        .install(f)
 }
 
 #[test]
@@ -293,7 +354,15 @@ fn splatting_is_bit_identical_for_any_thread_count() {
     let set = random_particles(70_000, 11, -1.2, 1.2);
     let domain = unit_domain(24.0);
     let run = || {
-        let (cache, _) = splat(&set, Deposit::Float(set.floats("mass").unwrap()), Kernel::Trilinear, &domain, &[0.0], None).unwrap();
+        let (cache, _) = splat(
+            &set,
+            Deposit::Float(set.floats("mass").unwrap()),
+            Kernel::Trilinear,
+            &domain,
+            &[0.0],
+            None,
+        )
+        .unwrap();
         cache_bits(&cache)
     };
     let one = in_pool(1, run);
@@ -302,19 +371,34 @@ fn splatting_is_bit_identical_for_any_thread_count() {
     // And independent of the particles' order.
     let mut reversed = set.clone();
     reversed.positions.reverse();
-    let Values::Float(m) = &mut reversed.attributes[0].values else { panic!() };
+    let Values::Float(m) = &mut reversed.attributes[0].values else {
+        panic!()
+    };
     m.reverse();
-    let (cache, _) = splat(&reversed, Deposit::Float(reversed.floats("mass").unwrap()), Kernel::Trilinear, &domain, &[0.0], None).unwrap();
+    let (cache, _) = splat(
+        &reversed,
+        Deposit::Float(reversed.floats("mass").unwrap()),
+        Kernel::Trilinear,
+        &domain,
+        &[0.0],
+        None,
+    )
+    .unwrap();
     assert_eq!(one, cache_bits(&cache));
 }
 
 #[test]
 fn files_read_back_bit_for_bit() {
     let mut set = random_particles(50, 3, -3.0, 3.0);
-    set.set("N", Values::Vector(vec![[0.0, 1.0, 0.0]; 50])).unwrap();
+    set.set("N", Values::Vector(vec![[0.0, 1.0, 0.0]; 50]))
+        .unwrap();
     for kind in [FileKind::PlyBinary, FileKind::PlyAscii, FileKind::Csv] {
         let bytes = io::write(&set, kind).unwrap();
-        let name = if kind == FileKind::Csv { "a.csv" } else { "a.ply" };
+        let name = if kind == FileKind::Csv {
+            "a.csv"
+        } else {
+            "a.ply"
+        };
         let back = io::read(&bytes, name).unwrap();
         assert_eq!(back, set, "{kind:?}");
     }
@@ -370,10 +454,18 @@ fn guides_at(points: &[[f32; 3]]) -> Vec<guide::Guide> {
 
 #[test]
 fn the_same_seed_gives_the_same_wisp_for_any_thread_count() {
-    let radial = CompiledField::prepared(&crate::field::Field::noise(crate::field::noise::NoiseKind::Perlin, 3).add(&crate::field::Field::constant_scalar(1.0)).unwrap()).unwrap();
+    let radial = CompiledField::prepared(
+        &crate::field::Field::noise(crate::field::noise::NoiseKind::Perlin, 3)
+            .add(&crate::field::Field::constant_scalar(1.0))
+            .unwrap(),
+    )
+    .unwrap();
     let guides = guides_at(&[[0.0, 0.0, 0.0], [3.0, 0.0, 0.0]]);
     let settings = wisp::Settings {
-        walk: Walk::Levy { epsilon: 0.6, q: 0.3 },
+        walk: Walk::Levy {
+            epsilon: 0.6,
+            q: 0.3,
+        },
         radial: Some(&radial),
         alpha: 2.0,
         displace: None,
@@ -385,7 +477,10 @@ fn the_same_seed_gives_the_same_wisp_for_any_thread_count() {
     assert_eq!(one, in_pool(2, run));
     assert_ne!(one, wisp::generate(&guides, 9000, 43, &settings).unwrap());
     // Without radial noise every dot lies on the unit sphere around its guide (or at its centre).
-    let plain = wisp::Settings { radial: None, ..settings };
+    let plain = wisp::Settings {
+        radial: None,
+        ..settings
+    };
     let dots = wisp::generate(&guides[..1], 2000, 1, &plain).unwrap();
     for p in &dots.positions {
         let r = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
@@ -398,19 +493,31 @@ fn the_chaos_game_of_halving_maps_fills_the_sierpinski_tetrahedron() {
     // f_i(p) = (p + v_i)/2 for the corners v_i of a tetrahedron: the attractor lies inside it,
     // so every stamped dot satisfies the four face inequalities (after 20 skipped steps the
     // start's distance has shrunk by 2^-20).
-    let corners = [DVec3::new(1.0, 1.0, 1.0), DVec3::new(1.0, -1.0, -1.0), DVec3::new(-1.0, 1.0, -1.0), DVec3::new(-1.0, -1.0, 1.0)];
+    let corners = [
+        DVec3::new(1.0, 1.0, 1.0),
+        DVec3::new(1.0, -1.0, -1.0),
+        DVec3::new(-1.0, 1.0, -1.0),
+        DVec3::new(-1.0, -1.0, 1.0),
+    ];
     let fields: Vec<CompiledField> = corners
         .iter()
         .map(|&v| {
-            let f = crate::field::Field::identity().add(&crate::field::Field::constant_vector(v)).unwrap();
-            CompiledField::prepared(&f.mul(&crate::field::Field::constant_scalar(0.5)).unwrap()).unwrap()
+            let f = crate::field::Field::identity()
+                .add(&crate::field::Field::constant_vector(v))
+                .unwrap();
+            CompiledField::prepared(&f.mul(&crate::field::Field::constant_scalar(0.5)).unwrap())
+                .unwrap()
         })
         .collect();
     let settings = chaos::Settings {
         maps: fields
             .iter()
             .enumerate()
-            .map(|(i, f)| chaos::Map { field: f as &dyn FieldSampler, weight: 1.0, color: DVec3::splat(i as f64) })
+            .map(|(i, f)| chaos::Map {
+                field: f as &dyn FieldSampler,
+                weight: 1.0,
+                color: DVec3::splat(i as f64),
+            })
             .collect(),
         displace: None,
         amount: 0.0,
@@ -426,12 +533,23 @@ fn the_chaos_game_of_halving_maps_fills_the_sierpinski_tetrahedron() {
     for p in &dots.positions {
         let (x, y, z) = (p[0] as f64, p[1] as f64, p[2] as f64);
         let slack = 1e-5;
-        assert!(x + y + z >= -1.0 - slack && x - y - z >= -1.0 - slack, "{p:?}");
-        assert!(-x + y - z >= -1.0 - slack && -x - y + z >= -1.0 - slack, "{p:?}");
+        assert!(
+            x + y + z >= -1.0 - slack && x - y - z >= -1.0 - slack,
+            "{p:?}"
+        );
+        assert!(
+            -x + y - z >= -1.0 - slack && -x - y + z >= -1.0 - slack,
+            "{p:?}"
+        );
     }
     // The running colour average stays within the map colours.
-    let Values::Vector(c) = dots.attribute("Cd").unwrap() else { panic!() };
-    assert!(c.iter().all(|v| v.iter().all(|&x| (0.0..=3.0).contains(&x))));
+    let Values::Vector(c) = dots.attribute("Cd").unwrap() else {
+        panic!()
+    };
+    assert!(
+        c.iter()
+            .all(|v| v.iter().all(|&x| (0.0..=3.0).contains(&x)))
+    );
 }
 
 #[test]
@@ -439,7 +557,10 @@ fn tone_maps_scale_by_one_factor() {
     use crate::render::tonemap::ToneMap;
     let m = ToneMap::MaxPlusOne;
     assert_eq!(m.factor([3.0, 1.0, 0.0]), 0.25);
-    let log = ToneMap::LogDensity { brightness: 2.0, gamma: 1.0 };
+    let log = ToneMap::LogDensity {
+        brightness: 2.0,
+        gamma: 1.0,
+    };
     // The brightest channel becomes log10(1 + k m) / k.
     let f = log.factor([4.0, 1.0, 0.5]) as f64;
     assert!((4.0 * f - (9.0f64).log10() / 2.0).abs() < 1e-6);

@@ -60,7 +60,9 @@ impl Walk {
             "levy" => {
                 check_epsilon()?;
                 if !q.is_finite() {
-                    return Err(Failure::new(format!("the Lévy walk's q must be finite, found {q}")));
+                    return Err(Failure::new(format!(
+                        "the Lévy walk's q must be finite, found {q}"
+                    )));
                 }
                 Ok(Walk::Levy { epsilon, q })
             }
@@ -109,7 +111,12 @@ pub struct Settings<'a> {
 }
 
 /// `count` dots per guide.
-pub fn generate(guides: &[Guide], count: usize, seed: u64, settings: &Settings) -> Outcome<Particles> {
+pub fn generate(
+    guides: &[Guide],
+    count: usize,
+    seed: u64,
+    settings: &Settings,
+) -> Outcome<Particles> {
     if !settings.alpha.is_finite() {
         return Err(Failure::new("the wisp's alpha must be finite"));
     }
@@ -130,7 +137,10 @@ pub fn generate(guides: &[Guide], count: usize, seed: u64, settings: &Settings) 
     let mut positions = vec![[0f32; 3]; dots];
     let colored = settings.color.is_some();
     let mut colors = vec![[0f32; 3]; if colored { dots } else { 0 }];
-    let color_lengths: Vec<usize> = lengths.iter().map(|&n| if colored { n } else { 0 }).collect();
+    let color_lengths: Vec<usize> = lengths
+        .iter()
+        .map(|&n| if colored { n } else { 0 })
+        .collect();
     split(&mut positions, &lengths)
         .into_par_iter()
         .zip(split(&mut colors, &color_lengths))
@@ -165,7 +175,11 @@ fn run_chain(
         .iter()
         .map(|p| {
             let len = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
-            if len > 0.0 { p.map(|c| c / len) } else { [0.0; 3] }
+            if len > 0.0 {
+                p.map(|c| c / len)
+            } else {
+                [0.0; 3]
+            }
         })
         .collect();
     let mut values = Vec::new();

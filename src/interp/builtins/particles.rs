@@ -196,14 +196,21 @@ pub fn register(r: &mut Registry) {
                 Some(v) => floats_of(v)?,
                 None => flame::default_params(name).to_vec(),
             };
-            Ok(Value::Field(flame::flame(name, &params, affine("pre")?, affine("post")?)?))
+            Ok(Value::Field(flame::flame(
+                name,
+                &params,
+                affine("pre")?,
+                affine("post")?,
+            )?))
         },
     );
     r.add(
         "particles",
-        &["flamewisp(particles guides, vectorfield[] maps, float[] weights, vector[] colors, \
+        &[
+            "flamewisp(particles guides, vectorfield[] maps, float[] weights, vector[] colors, \
            int count, int seed, vectorfield displace?, float amount?, vectorfield color?, \
-           int iterations?, int skip?) -> particles"],
+           int iterations?, int skip?) -> particles",
+        ],
         "count dots per guide from the chaos game over maps (picked by weight, each with its \
          colour), displaced by amount * displace, coloured (color + map colour)/2 or by the \
          running average of map colours; chains of iterations stamped steps after skip",
@@ -243,8 +250,7 @@ fn floats_of(v: &Value) -> Outcome<Vec<f64>> {
 
 fn count_of(a: &Args, key: &str) -> Outcome<usize> {
     let n = a.int(key)?;
-    usize::try_from(n)
-        .map_err(|_| Failure::new(format!("{key} must not be negative, found {n}")))
+    usize::try_from(n).map_err(|_| Failure::new(format!("{key} must not be negative, found {n}")))
 }
 
 fn seed_of(a: &Args) -> Outcome<u64> {
@@ -256,18 +262,19 @@ fn seed_of(a: &Args) -> Outcome<u64> {
 fn sample_at_points(field: &Field, set: &Particles) -> Outcome<Vec<f32>> {
     let sampler = CompiledField::prepared(field)?;
     let width = field.kind().width();
-    let points: Vec<[f64; 3]> = set
-        .positions
-        .iter()
-        .map(|p| p.map(|c| c as f64))
-        .collect();
+    let points: Vec<[f64; 3]> = set.positions.iter().map(|p| p.map(|c| c as f64)).collect();
     use rayon::prelude::*;
     const RUN: usize = 16 * crate::sample::BLOCK;
     let runs: Vec<Vec<f32>> = points
         .par_chunks(RUN)
         .map(|chunk| {
             let mut out = Vec::new();
-            crate::particles::evaluate::at_points(sampler.evaluator().as_mut(), width, chunk, &mut out);
+            crate::particles::evaluate::at_points(
+                sampler.evaluator().as_mut(),
+                width,
+                chunk,
+                &mut out,
+            );
             out
         })
         .collect();
@@ -287,8 +294,19 @@ fn addattr(_: &mut Interpreter, a: Args) -> Outcome<Value> {
     let n = set.len();
     let values = match a.form {
         0 => Values::Float(vec![a.float("value")? as f32; n]),
-        1 => Values::Vector(vec![a.get("value")?.as_vector()?.to_array().map(|c| c as f32); n]),
-        2 => Values::Float(floats_of(a.get("values")?)?.iter().map(|&v| v as f32).collect()),
+        1 => Values::Vector(vec![
+            a.get("value")?
+                .as_vector()?
+                .to_array()
+                .map(|c| c as f32);
+            n
+        ]),
+        2 => Values::Float(
+            floats_of(a.get("values")?)?
+                .iter()
+                .map(|&v| v as f32)
+                .collect(),
+        ),
         3 => Values::Vector(vectors_of(a.get("values")?)?),
         4 => Values::Float(sample_at_points(&a.get("f")?.as_field()?, set)?),
         _ => {
@@ -399,12 +417,20 @@ fn flamewisp(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
     let iterations = match a.opt_int("iterations")? {
         None => 1000,
         Some(n) if n > 0 => n as usize,
-        Some(n) => return Err(Failure::new(format!("iterations must be positive, found {n}"))),
+        Some(n) => {
+            return Err(Failure::new(format!(
+                "iterations must be positive, found {n}"
+            )));
+        }
     };
     let skip = match a.opt_int("skip")? {
         None => 20,
         Some(n) if n >= 0 => n as usize,
-        Some(n) => return Err(Failure::new(format!("skip must not be negative, found {n}"))),
+        Some(n) => {
+            return Err(Failure::new(format!(
+                "skip must not be negative, found {n}"
+            )));
+        }
     };
     let settings = chaos::Settings {
         maps: maps
@@ -444,7 +470,10 @@ fn flamewisp(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
 fn wisp_builtin(_: &mut Interpreter, a: Args) -> Outcome<Value> {
     let guides = guide::guides(particles_of(a.get("guides")?)?)?;
     let walk = wisp::Walk::new(
-        a.opt("walk").map(|w| w.as_str()).transpose()?.unwrap_or("random"),
+        a.opt("walk")
+            .map(|w| w.as_str())
+            .transpose()?
+            .unwrap_or("random"),
         a.opt_float("epsilon")?.unwrap_or(0.7),
         a.opt_float("q")?.unwrap_or(0.5),
     )?;

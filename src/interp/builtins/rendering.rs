@@ -291,8 +291,10 @@ fn run_render(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
             a.opt_float("gamma")?,
         )?),
         None if a.given("brightness") || a.given("gamma") => {
-            return Err(Failure::new("brightness and gamma belong to tonemap = \"log\"")
-                .with_help("add tonemap = \"log\""));
+            return Err(
+                Failure::new("brightness and gamma belong to tonemap = \"log\"")
+                    .with_help("add tonemap = \"log\""),
+            );
         }
         None => None,
     };
