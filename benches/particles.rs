@@ -217,12 +217,14 @@ fn end_to_end(dots: usize) {
         camera,
         lights: Vec::new(),
     };
-    let mut settings = RenderSettings::default();
-    settings.width = 1280;
-    settings.height = 720;
-    settings.kappa = DVec3::splat(kappa);
-    settings.step = Some(4.0 / 768.0);
-    settings.bounds = Some(d.bounds());
+    let settings = RenderSettings {
+        width: 1280,
+        height: 720,
+        kappa: DVec3::splat(kappa),
+        step: Some(4.0 / 768.0),
+        bounds: Some(d.bounds()),
+        ..RenderSettings::default()
+    };
     let t = Instant::now();
     let (mut image, _) = render_with_stats(&scene, &settings).unwrap();
     ToneMap::MaxPlusOne.apply(&mut image);

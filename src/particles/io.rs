@@ -74,14 +74,15 @@ fn layout(columns: &[String], what: &str) -> Outcome<Layout> {
         };
         if let Some((name, parts)) = base {
             let at: Vec<Option<usize>> = parts.iter().map(|p| find(p)).collect();
-            if let [Some(a), Some(b), Some(c)] = at[..] {
-                if !used[b] && !used[c] {
-                    used[a] = true;
-                    used[b] = true;
-                    used[c] = true;
-                    attributes.push((name, vec![a, b, c]));
-                    continue;
-                }
+            if let [Some(a), Some(b), Some(c)] = at[..]
+                && !used[b]
+                && !used[c]
+            {
+                used[a] = true;
+                used[b] = true;
+                used[c] = true;
+                attributes.push((name, vec![a, b, c]));
+                continue;
             }
         }
         used[i] = true;

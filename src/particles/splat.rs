@@ -109,7 +109,7 @@ impl Indexer {
             self.to_index * (DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) - self.origin);
         let u = local.to_array();
         for a in 0..3 {
-            if !(u[a] >= 0.0 && u[a] < self.cells[a] as f64) {
+            if !(0.0..self.cells[a] as f64).contains(&u[a]) {
                 return None;
             }
         }

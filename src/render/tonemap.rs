@@ -20,12 +20,12 @@ pub enum ToneMap {
 impl ToneMap {
     pub fn parse(name: &str, brightness: Option<f64>, gamma: Option<f64>) -> Outcome<ToneMap> {
         for (what, v) in [("brightness", brightness), ("gamma", gamma)] {
-            if let Some(v) = v {
-                if !(v.is_finite() && v > 0.0) {
-                    return Err(Failure::new(format!(
-                        "the tone map's {what} must be a positive number, found {v}"
-                    )));
-                }
+            if let Some(v) = v
+                && !(v.is_finite() && v > 0.0)
+            {
+                return Err(Failure::new(format!(
+                    "the tone map's {what} must be a positive number, found {v}"
+                )));
             }
         }
         match name {
