@@ -28,7 +28,7 @@ pub fn scatter(
     count: usize,
     seed: u64,
 ) -> Outcome<Particles> {
-    if !(region.is_finite() && !region.is_empty()) {
+    if !region.is_finite() || region.is_empty() {
         return Err(Failure::new("scatter needs a finite, non-empty region"));
     }
     super::check_memory(count, &[], "scattering particles")?;
