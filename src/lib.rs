@@ -23,6 +23,7 @@ pub mod input;
 pub mod interp;
 pub mod interrupt;
 pub mod output;
+pub mod particles;
 pub mod render;
 pub mod repl;
 pub mod sample;

@@ -43,6 +43,7 @@ const SMALL: &[(&str, &str)] = &[
     ("height", "9"),
     ("res", "24"),
     ("frames", "3"),
+    ("dots", "3000"),
 ];
 
 #[test]

@@ -11,6 +11,7 @@ use crate::field::{Field, FieldKind};
 use crate::geometry::Mesh;
 use crate::grid::cache::Cache;
 use crate::grid::domain::Domain;
+use crate::particles::Particles;
 use crate::render::{Camera, Light};
 use glam::{DMat3, DVec3};
 use std::cell::RefCell;
@@ -33,6 +34,8 @@ pub enum Value {
     Shape(Rc<Mesh>),
     Camera(Rc<Camera>),
     Light(Rc<Light>),
+    /// Points with attributes; shared, never changed once made.
+    Particles(Arc<Particles>),
     /// Elements and the element type (needed for `{}` and for conversions).
     Array(Rc<Vec<Value>>, Type),
 }
@@ -68,6 +71,7 @@ impl Value {
             Value::Shape(_) => Type::Shape,
             Value::Camera(_) => Type::Camera,
             Value::Light(_) => Type::Light,
+            Value::Particles(_) => Type::Particles,
             Value::Array(_, elem) => Type::array_of(elem.clone()),
         }
     }
@@ -310,6 +314,12 @@ impl fmt::Display for Value {
                     format_vector(l.color)
                 ),
             },
+            Value::Particles(p) => {
+                let names: Vec<&str> = std::iter::once(crate::particles::POSITION)
+                    .chain(p.attributes.iter().map(|a| a.name.as_str()))
+                    .collect();
+                write!(f, "particles ({} points: {})", p.len(), names.join(", "))
+            }
             Value::Array(items, _) => {
                 f.write_str("{")?;
                 for (i, item) in items.iter().enumerate() {

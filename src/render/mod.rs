@@ -24,6 +24,7 @@ pub mod settings;
 mod space;
 mod sweep;
 mod tile;
+pub mod tonemap;
 pub mod transmittance;
 
 #[cfg(test)]

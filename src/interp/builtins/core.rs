@@ -28,7 +28,7 @@ pub fn register(r: &mut Registry) {
     );
     r.add(
         "core",
-        &["size(any[] a) -> int"],
+        &["size(any[] a) -> int", "size(particles p) -> int"],
         "the number of elements of an array",
         size,
     );
@@ -74,6 +74,9 @@ fn format_builtin(_: &mut Interpreter, args: Args) -> Outcome<Value> {
 }
 
 fn size(_: &mut Interpreter, args: Args) -> Outcome<Value> {
+    if let Value::Particles(p) = args.get(0)? {
+        return Ok(Value::Int(p.len() as i64));
+    }
     Ok(Value::Int(args.get(0)?.as_array()?.len() as i64))
 }
 

@@ -220,7 +220,7 @@ fn new_cache(a: &Args, shape: Shape, background: Vec<f64>) -> Outcome<Value> {
     })))
 }
 
-fn cache_var(a: &Args) -> Outcome<&Rc<CacheVar>> {
+pub fn cache_var(a: &Args) -> Outcome<&Rc<CacheVar>> {
     match a.get(0)? {
         Value::Cache(c) => Ok(c),
         other => Err(Failure::new(format!(

@@ -8,6 +8,7 @@ mod geometry;
 pub mod grids;
 mod math;
 mod modeling;
+mod particles;
 mod rendering;
 mod simulation;
 
@@ -22,4 +23,5 @@ pub fn register_all(r: &mut Registry) {
     rendering::register(r);
     geometry::register(r);
     simulation::register(r);
+    particles::register(r);
 }

@@ -13,6 +13,7 @@ use crate::interp::Interpreter;
 use crate::interp::registry::{Args, Registry};
 use crate::interp::value::Value;
 use crate::render::settings::{Adaptive, Aovs, MultiScatter, Shadows};
+use crate::render::tonemap::ToneMap;
 use crate::render::transmittance::TransmissivityMethod;
 use crate::render::{self, Camera, Light, Phase, RenderSettings, Scene};
 use crate::sample::{GridDerivative, GridSource, Interp};
@@ -31,7 +32,7 @@ macro_rules! render_form {
             " kappa?, float step?, int width?, int height?, int spp?, int seed?, ",
             "domain bounds?, float threshold?, float phase?, vector phase2?, scalarfield holdout?, ",
             "vector ambient?, int multiscatter?, bool adaptive?, string[] aovs?, string shadows?, ",
-            "float powder?, float shadowcell?, float albedo?) -> void"
+            "float powder?, float shadowcell?, float albedo?, string tonemap?, float brightness?, float gamma?) -> void"
         )
     };
 }
@@ -106,10 +107,12 @@ pub fn register(r: &mut Registry) {
         "rendering",
         &[render_form!("float"), render_form!("vector")],
         "raymarches density (lit by lights, coloured by color, glowing with emission) into an \
-         OpenEXR image, or a PNG preview when path ends in .png",
+         OpenEXR image, or a PNG preview when path ends in .png; tonemap = \"max1\" or \"log\" \
+         (brightness, gamma) compresses emission-only particle renders",
         run_render,
     );
     r.choices("render", "shadows", "shadows mode", &["cache", "march"]);
+    r.choices("render", "tonemap", "tone map", &["max1", "log"]);
     r.choices(
         "render",
         "aovs",
@@ -301,6 +304,20 @@ fn run_render(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
             method: TransmissivityMethod::Auto,
         };
     }
+    let tonemap = match a.opt("tonemap") {
+        Some(name) => Some(ToneMap::parse(
+            name.as_str()?,
+            a.opt_float("brightness")?,
+            a.opt_float("gamma")?,
+        )?),
+        None if a.given("brightness") || a.given("gamma") => {
+            return Err(
+                Failure::new("brightness and gamma belong to tonemap = \"log\"")
+                    .with_help("add tonemap = \"log\""),
+            );
+        }
+        None => None,
+    };
     let scene = Scene {
         density: &density,
         color: color
@@ -321,7 +338,10 @@ fn run_render(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
         Failure::new(format!("cannot write image '{path}': {e}"))
             .with_help("create the folder first, or write somewhere else")
     })?;
-    let (image, render_stats) = render::render_with_stats(&scene, &settings)?;
+    let (mut image, render_stats) = render::render_with_stats(&scene, &settings)?;
+    if let Some(map) = tonemap {
+        map.apply(&mut image);
+    }
     render::write_image(Path::new(&path), &image)?;
     for warning in render_stats.warnings() {
         interp.warnings.push(
