@@ -23,6 +23,8 @@ pub mod input;
 pub mod interp;
 pub mod interrupt;
 pub mod output;
+pub mod paths;
+pub mod provenance;
 pub mod render;
 pub mod repl;
 pub mod sample;
