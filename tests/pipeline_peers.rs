@@ -80,12 +80,13 @@ fn vdb_print_lists_every_grid_with_its_class_type_and_metadata() {
     for line in [&creator as &str, "felt/param/heat: 2.5", "felt/version:"] {
         assert!(file_part.contains(line), "file metadata lacks {line}:\n{printed}");
     }
+    // vdb_print lists the grids by name.
     let grids: Vec<&str> = grids_part.split("Name: ").collect();
     let expect = [
         ("density", "Tree_float_5_4_3", "class: fog volume"),
+        ("surface", "Tree_float_5_4_3", "class: level set"),
         ("temperature", "Tree_float_5_4_3", "class: fog volume"),
         ("vel", "Tree_vec3s_5_4_3", "class: unknown"),
-        ("surface", "Tree_float_5_4_3", "class: level set"),
     ];
     assert_eq!(grids.len(), expect.len(), "{printed}");
     for (grid, (name, tree, class)) in grids.iter().zip(expect) {
@@ -94,8 +95,8 @@ fn vdb_print_lists_every_grid_with_its_class_type_and_metadata() {
             assert!(grid.contains(line), "grid {name} lacks {line}:\n{grid}");
         }
     }
-    assert!(grids[2].contains("vector_type: covariant"), "{}", grids[2]);
-    assert!(grids[3].contains("Background value: 0.75"), "{}", grids[3]);
+    assert!(grids[3].contains("vector_type: covariant"), "{}", grids[3]);
+    assert!(grids[1].contains("Background value: 0.75"), "{}", grids[1]);
 }
 
 /// Prints every grid of a file as pyopenvdb reads it: name, class, type, vector type,
@@ -133,13 +134,14 @@ fn pyopenvdb_reads_names_classes_vector_types_metadata_and_values() {
         .filter(|l| l.starts_with("grid\t"))
         .map(|l| l.split('\t').skip(1).collect())
         .collect();
+    // pyopenvdb, like vdb_print, gives the grids by name.
     assert_eq!(
         headers,
         [
             ["density", "fog_volume", "float", "-", &creator],
+            ["surface", "level_set", "float", "-", &creator],
             ["temperature", "fog_volume", "float", "-", &creator],
             ["vel", "unknown", "vec3s", "covariant", &creator],
-            ["surface", "level_set", "float", "-", &creator],
         ]
     );
     let mut checked = 0;

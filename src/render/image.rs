@@ -197,7 +197,17 @@ fn write_exr(
                 for (i, v) in rows.iter().flatten().enumerate() {
                     flat[i] = *v;
                 }
-                AttributeValue::Matrix4x4(flat)
+                // The standard attributes have fields of their own in the writer.
+                match name.as_str() {
+                    "worldToCamera" => attributes.world_to_camera = Some(flat),
+                    "worldToNDC" => attributes.world_to_normalized_device = Some(flat),
+                    _ => {
+                        attributes
+                            .other
+                            .insert(latin1(name), AttributeValue::Matrix4x4(flat));
+                    }
+                }
+                continue;
             }
         };
         attributes.other.insert(latin1(name), value);

@@ -189,14 +189,19 @@ fn cachesave(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
     let cache = written(&a)?;
     let (file, name) = split_grid_name(a.string("path")?)?;
     let vector = cache.width() == 3;
-    let class = match a.opt("class") {
-        Some(v) => vdb_cache::GridClass::parse(v.as_str()?)?,
-        None if vector => vdb_cache::GridClass::Unknown,
-        None => vdb_cache::GridClass::FogVolume,
-    };
-    let vector_type = match a.opt("vector_type") {
-        Some(v) => v.as_str()?.to_string(),
-        None => vdb_cache::DEFAULT_VECTOR_TYPE.to_string(),
+    // Each form has its own keyword: class for scalars, vector_type for vectors.
+    let (class, vector_type) = if vector {
+        let vector_type = match a.opt("vector_type") {
+            Some(v) => v.as_str()?.to_string(),
+            None => vdb_cache::DEFAULT_VECTOR_TYPE.to_string(),
+        };
+        (vdb_cache::GridClass::Unknown, vector_type)
+    } else {
+        let class = match a.opt("class") {
+            Some(v) => vdb_cache::GridClass::parse(v.as_str()?)?,
+            None => vdb_cache::GridClass::FogVolume,
+        };
+        (class, String::new())
     };
     let options = vdb_cache::GridOptions {
         name: name.unwrap_or(if vector { "vel" } else { "density" }).to_string(),
