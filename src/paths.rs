@@ -71,10 +71,7 @@ pub fn expand(text: &str) -> Outcome<String> {
 }
 
 /// `expand` with `lookup` in place of the process's environment.
-fn expand_with(
-    text: &str,
-    lookup: impl Fn(&str) -> Option<std::ffi::OsString>,
-) -> Outcome<String> {
+fn expand_with(text: &str, lookup: impl Fn(&str) -> Option<std::ffi::OsString>) -> Outcome<String> {
     let mut out = String::with_capacity(text.len());
     let mut rest = text;
     while let Some(at) = rest.find('$') {
@@ -103,7 +100,9 @@ fn expand_with(
         } else {
             let end = after
                 .char_indices()
-                .find(|&(i, c)| !(c == '_' || c.is_ascii_alphabetic() || i > 0 && c.is_ascii_digit()))
+                .find(|&(i, c)| {
+                    !(c == '_' || c.is_ascii_alphabetic() || i > 0 && c.is_ascii_digit())
+                })
                 .map_or(after.len(), |(i, _)| i);
             if end == 0 {
                 // A '$' that starts no name is just a character of the file name.
@@ -156,7 +155,10 @@ mod tests {
     #[test]
     fn variables_expand_in_both_spellings() {
         let cases = [
-            ("$SHOT/cache/density.vdb", "/show/sq010/sh020/cache/density.vdb"),
+            (
+                "$SHOT/cache/density.vdb",
+                "/show/sq010/sh020/cache/density.vdb",
+            ),
             ("${SHOT}/v${V}.exr", "/show/sq010/sh020/v3.exr"),
             ("out_$V.exr", "out_3.exr"),
             ("$V$V", "33"),
@@ -180,9 +182,17 @@ mod tests {
         );
         assert!(unset.help.unwrap().contains("export TAKE="));
         let open = expand_with("${SHOT/a.exr", shot).unwrap_err();
-        assert!(open.message.contains("without a closing"), "{}", open.message);
+        assert!(
+            open.message.contains("without a closing"),
+            "{}",
+            open.message
+        );
         let empty = expand_with("${}/a.exr", shot).unwrap_err();
-        assert!(empty.message.contains("not an environment"), "{}", empty.message);
+        assert!(
+            empty.message.contains("not an environment"),
+            "{}",
+            empty.message
+        );
     }
 
     #[test]
@@ -195,7 +205,10 @@ mod tests {
             files.reading("cache/a.vdb").unwrap(),
             Path::new("/show/scenes/cache/a.vdb")
         );
-        assert_eq!(files.reading("/abs/a.vdb").unwrap(), Path::new("/abs/a.vdb"));
+        assert_eq!(
+            files.reading("/abs/a.vdb").unwrap(),
+            Path::new("/abs/a.vdb")
+        );
         let at_prompt = ScriptFiles::default();
         assert_eq!(at_prompt.reading("a.vdb").unwrap(), Path::new("a.vdb"));
         assert_eq!(at_prompt.writing("a.exr").unwrap(), Path::new("a.exr"));

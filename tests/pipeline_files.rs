@@ -56,7 +56,11 @@ fn outputs_and_their_folders_get_the_permissions_the_umask_gives() {
         let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
         for name in ["a.vdb", "a.exr", "a.png", "a.obj"] {
             let path = dir.path().join("renders/new").join(name);
-            assert_eq!(mode(&path), 0o666 & !umask, "{name} under umask {umask:03o}");
+            assert_eq!(
+                mode(&path),
+                0o666 & !umask,
+                "{name} under umask {umask:03o}"
+            );
         }
         for folder in ["renders", "renders/new"] {
             assert_eq!(mode(&dir.path().join(folder)), 0o777 & !umask, "{folder}");
@@ -97,7 +101,12 @@ fn relative_paths_start_at_the_script_and_output_dir_redirects_outputs() {
          cachewrite(c, scalarfield(2.0));\ncachesave(c, \"cache/input.vdb\");\n",
     );
     let elsewhere = tempfile::tempdir().unwrap();
-    ran(felt().arg("run").arg(&make).current_dir(elsewhere.path()).output().unwrap());
+    ran(felt()
+        .arg("run")
+        .arg(&make)
+        .current_dir(elsewhere.path())
+        .output()
+        .unwrap());
     assert!(shot.join("cache/input.vdb").exists());
     assert_eq!(std::fs::read_dir(elsewhere.path()).unwrap().count(), 0);
     // A second script reads it, writes its own cache and reads that back too.
@@ -109,7 +118,12 @@ fn relative_paths_start_at_the_script_and_output_dir_redirects_outputs() {
          cachewrite(c, input * 3.0);\ncachesave(c, \"out/tripled.vdb\");\n\
          print(probe(cacheload(\"out/tripled.vdb\", \"density\"), (0.5, 0.5, 0.5)));\n",
     );
-    let out = ran(felt().arg("run").arg(&use_it).current_dir(elsewhere.path()).output().unwrap());
+    let out = ran(felt()
+        .arg("run")
+        .arg(&use_it)
+        .current_dir(elsewhere.path())
+        .output()
+        .unwrap());
     assert_eq!(String::from_utf8_lossy(&out.stdout).trim(), "6.0");
     assert!(shot.join("out/tripled.vdb").exists());
     // With --output-dir the output lands there (and is read back from there), the input is
@@ -158,8 +172,9 @@ fn environment_variables_in_paths_expand_and_an_unset_one_is_named() {
     assert_eq!(out.status.code(), Some(1));
     let text = stderr(&out);
     assert!(
-        text.contains("the environment variable TAKE in the path \"${SHOT}/v${TAKE}.vdb\" is not set")
-            && text.contains("scene.felt:5"),
+        text.contains(
+            "the environment variable TAKE in the path \"${SHOT}/v${TAKE}.vdb\" is not set"
+        ) && text.contains("scene.felt:5"),
         "{text}"
     );
 }
@@ -211,34 +226,60 @@ fn several_grids_share_a_file_and_append_keeps_an_earlier_runs() {
     let printed = String::from_utf8_lossy(&out.stdout).into_owned();
     let lines: Vec<&str> = printed.lines().collect();
     // A linear field is reproduced by Catmull-Rom; outside = "hold" keeps the edge value.
-    assert!((lines[0].parse::<f64>().unwrap() - 1.25).abs() < 1e-6, "{printed}");
+    assert!(
+        (lines[0].parse::<f64>().unwrap() - 1.25).abs() < 1e-6,
+        "{printed}"
+    );
     let vel: Vec<f64> = lines[1]
         .trim_matches(|c| c == '(' || c == ')')
         .split(", ")
         .map(|c| c.parse().unwrap())
         .collect();
-    assert!(vel.iter().zip([1.0, 2.0, 3.0]).all(|(v, e)| (v - e).abs() < 1e-9), "{printed}");
+    assert!(
+        vel.iter()
+            .zip([1.0, 2.0, 3.0])
+            .all(|(v, e)| (v - e).abs() < 1e-9),
+        "{printed}"
+    );
     let path = dir.path().join("sim.vdb");
     let grids = felt::grid::vdb::read_file(&path).unwrap();
-    let names: Vec<(&str, &str)> = grids.iter().map(|g| (g.name.as_str(), g.class.as_str())).collect();
+    let names: Vec<(&str, &str)> = grids
+        .iter()
+        .map(|g| (g.name.as_str(), g.class.as_str()))
+        .collect();
     assert_eq!(
         names,
-        [("density", "fog volume"), ("temperature", "fog volume"), ("vel", "unknown")]
+        [
+            ("density", "fog volume"),
+            ("temperature", "fog volume"),
+            ("vel", "unknown")
+        ]
     );
     use felt::grid::vdb::VdbMeta;
-    assert_eq!(grids[2].meta("vector_type"), Some(&VdbMeta::String("covariant".into())));
+    assert_eq!(
+        grids[2].meta("vector_type"),
+        Some(&VdbMeta::String("covariant".into()))
+    );
     let file_meta = felt::grid::vdb::read_file_metadata(&std::fs::read(&path).unwrap()).unwrap();
     let text = |key: &str| {
-        file_meta.iter().find(|(k, _)| k == key).map(|(_, v)| v.clone())
+        file_meta
+            .iter()
+            .find(|(k, _)| k == key)
+            .map(|(_, v)| v.clone())
     };
     assert_eq!(text("felt/param/heat"), Some(VdbMeta::String("2.5".into())));
     assert_eq!(
         text("felt/script"),
-        Some(VdbMeta::String(scene.canonicalize().unwrap().display().to_string()))
+        Some(VdbMeta::String(
+            scene.canonicalize().unwrap().display().to_string()
+        ))
     );
     assert_eq!(
         text("creator"),
-        Some(VdbMeta::String(format!("felt {}", env!("CARGO_PKG_VERSION"))))
+        Some(VdbMeta::String(format!(
+            "felt {}",
+            env!("CARGO_PKG_VERSION")
+        )))
     );
     // A second run with append = true keeps the first run's grids; without it the file is
     // this run's alone.
@@ -272,7 +313,10 @@ fn a_domain_that_is_not_whole_cells_is_rounded_with_a_warning_and_round_trips() 
     );
     let out = ran(felt().arg("run").arg(&scene).output().unwrap());
     let printed = String::from_utf8_lossy(&out.stdout).into_owned();
-    let numbers: Vec<f64> = printed.split_whitespace().map(|n| n.parse().unwrap()).collect();
+    let numbers: Vec<f64> = printed
+        .split_whitespace()
+        .map(|n| n.parse().unwrap())
+        .collect();
     assert!(numbers[..3].iter().all(|d| d.abs() < 1e-9), "{printed}");
     assert!(numbers[3] > 0.5, "{printed}");
     let text = stderr(&out);
@@ -295,7 +339,13 @@ fn named_light_render(dir: &Path) -> PathBuf {
          render(\"lit.exr\", density = rho, camera = cam, lights = {key, fill}, width = width, \
          height = 6, step = 0.05, aovs = {\"lights\", \"depth\"}, exr_half = true);\n",
     );
-    ran(felt().arg("run").arg(&scene).arg("--set").arg("width=10").output().unwrap());
+    ran(felt()
+        .arg("run")
+        .arg(&scene)
+        .arg("--set")
+        .arg("width=10")
+        .output()
+        .unwrap());
     dir.join("lit.exr")
 }
 
@@ -327,9 +377,17 @@ fn an_exr_carries_half_channels_named_lights_the_camera_and_the_run() {
         })
         .collect();
     let expected: Vec<(String, &str)> = [
-        ("A", "half"), ("B", "half"), ("G", "half"), ("R", "half"), ("depth.Z", "float"),
-        ("key.B", "half"), ("key.G", "half"), ("key.R", "half"),
-        ("light1.B", "half"), ("light1.G", "half"), ("light1.R", "half"),
+        ("A", "half"),
+        ("B", "half"),
+        ("G", "half"),
+        ("R", "half"),
+        ("depth.Z", "float"),
+        ("key.B", "half"),
+        ("key.G", "half"),
+        ("key.R", "half"),
+        ("light1.B", "half"),
+        ("light1.G", "half"),
+        ("light1.R", "half"),
     ]
     .iter()
     .map(|(n, k)| (n.to_string(), *k))
@@ -380,16 +438,28 @@ fn light_names_that_clash_or_break_channels_are_errors() {
     let clash = script(
         dir.path(),
         "clash.felt",
-        &scene("light a = distantlight((0, -1, 0), name = \"light1\");\nlight b = distantlight((0, -1, 0));"),
+        &scene(
+            "light a = distantlight((0, -1, 0), name = \"light1\");\nlight b = distantlight((0, -1, 0));",
+        ),
     );
     let out = felt().arg("run").arg(&clash).output().unwrap();
     assert_eq!(out.status.code(), Some(1));
-    assert!(stderr(&out).contains("two AOV layers are called 'light1'"), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("two AOV layers are called 'light1'"),
+        "{}",
+        stderr(&out)
+    );
     let dotted = script(
         dir.path(),
         "dotted.felt",
-        &scene("light a = distantlight((0, -1, 0), name = \"key.1\");\nlight b = distantlight((0, -1, 0));"),
+        &scene(
+            "light a = distantlight((0, -1, 0), name = \"key.1\");\nlight b = distantlight((0, -1, 0));",
+        ),
     );
     let out = felt().arg("run").arg(&dotted).output().unwrap();
-    assert!(stderr(&out).contains("a light's name must be letters"), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("a light's name must be letters"),
+        "{}",
+        stderr(&out)
+    );
 }

@@ -78,7 +78,10 @@ fn vdb_print_lists_every_grid_with_its_class_type_and_metadata() {
     // File-level metadata comes before the first grid.
     let (file_part, grids_part) = printed.split_once("Name: ").expect("no grid printed");
     for line in [&creator as &str, "felt/param/heat: 2.5", "felt/version:"] {
-        assert!(file_part.contains(line), "file metadata lacks {line}:\n{printed}");
+        assert!(
+            file_part.contains(line),
+            "file metadata lacks {line}:\n{printed}"
+        );
     }
     // vdb_print lists the grids by name.
     let grids: Vec<&str> = grids_part.split("Name: ").collect();
@@ -165,10 +168,14 @@ fn pyopenvdb_reads_names_classes_vector_types_metadata_and_values() {
         checked += 1;
     }
     assert_eq!(checked, 4 * 64);
-    let meta: Vec<&str> = printed.lines().filter(|l| l.starts_with("meta\t")).collect();
+    let meta: Vec<&str> = printed
+        .lines()
+        .filter(|l| l.starts_with("meta\t"))
+        .collect();
     assert!(meta.contains(&"meta\tfelt/param/heat\t2.5"), "{meta:?}");
     assert!(
-        meta.iter().any(|l| l.starts_with("meta\tfelt/script\t") && l.ends_with("sim.felt")),
+        meta.iter()
+            .any(|l| l.starts_with("meta\tfelt/script\t") && l.ends_with("sim.felt")),
         "{meta:?}"
     );
 }
@@ -264,8 +271,14 @@ fn exrheader_shows_half_channels_named_lights_and_the_camera() {
             "{channel} is not half:\n{header}"
         );
     }
-    assert!(header.contains("depth.Z, 32-bit floating-point"), "{header}");
-    assert!(header.contains("felt/param/width (type string): \"8\""), "{header}");
+    assert!(
+        header.contains("depth.Z, 32-bit floating-point"),
+        "{header}"
+    );
+    assert!(
+        header.contains("felt/param/width (type string): \"8\""),
+        "{header}"
+    );
     assert!(header.contains("felt/version (type string)"), "{header}");
     // exrheader prints a matrix row by row; Imath's layout puts the translation last.
     let matrix = |name: &str| -> Vec<f64> {
@@ -295,5 +308,8 @@ fn exrheader_shows_half_channels_named_lights_and_the_camera() {
     // The world origin is at the centre of the image: NDC (0.5, 0.5) after dividing by w.
     let ndc = matrix("worldToNDC");
     let (x, y, w) = (ndc[12], ndc[13], ndc[15]);
-    assert!((x / w - 0.5).abs() < 1e-6 && (y / w - 0.5).abs() < 1e-6, "{ndc:?}");
+    assert!(
+        (x / w - 0.5).abs() < 1e-6 && (y / w - 0.5).abs() < 1e-6,
+        "{ndc:?}"
+    );
 }

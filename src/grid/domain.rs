@@ -117,7 +117,13 @@ impl Domain {
     /// adjusted to `length / count`: for felt's own working grids (light caches, meshing),
     /// which must cover a box exactly and never reach a file.
     pub fn fitted(origin: DVec3, lengths: DVec3, orientation: DVec3, cell: f64) -> Outcome<Domain> {
-        Domain::divided(origin, lengths, orientation, DVec3::splat(cell), Fit::Lengths)
+        Domain::divided(
+            origin,
+            lengths,
+            orientation,
+            DVec3::splat(cell),
+            Fit::Lengths,
+        )
     }
 
     fn divided(
@@ -393,8 +399,8 @@ mod tests {
         assert_eq!((axis, asked), (2, 0.45));
         assert!((made - 0.6).abs() < 1e-15);
         // Whole cells up to rounding are not a change.
-        let exact = Domain::with_cells(DVec3::ZERO, DVec3::splat(2.0), DVec3::ZERO, 0.1, 0.1)
-            .unwrap();
+        let exact =
+            Domain::with_cells(DVec3::ZERO, DVec3::splat(2.0), DVec3::ZERO, 0.1, 0.1).unwrap();
         assert_eq!(exact.length_change(DVec3::splat(2.0)), None);
     }
 

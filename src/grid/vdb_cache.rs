@@ -91,7 +91,9 @@ pub fn grid_of(cache: &Cache, options: &GridOptions) -> Outcome<VdbGrid> {
         }
     };
     if value_type == VdbValues::Vec3 && options.class == GridClass::LevelSet {
-        return Err(Failure::new("a level set is a scalar grid, not a vector one"));
+        return Err(Failure::new(
+            "a level set is a scalar grid, not a vector one",
+        ));
     }
     let domain = cache.domain();
     let res = cache.resolution();
@@ -174,12 +176,7 @@ pub fn grid_of(cache: &Cache, options: &GridOptions) -> Outcome<VdbGrid> {
 /// Writes `grid` to the VDB file at `path` with the file-level `metadata`. With `keep`, the
 /// grids already in the file stay, except one of the same name, which `grid` replaces where
 /// it was.
-pub fn save(
-    path: &Path,
-    grid: VdbGrid,
-    keep: bool,
-    metadata: &[(String, VdbMeta)],
-) -> Outcome<()> {
+pub fn save(path: &Path, grid: VdbGrid, keep: bool, metadata: &[(String, VdbMeta)]) -> Outcome<()> {
     let mut grids = if keep && path.exists() {
         vdb::read_file(path).map_err(|f| Failure {
             message: format!(
@@ -302,7 +299,8 @@ pub fn load(path: &Path, name: &str, width: usize) -> Outcome<(Cache, LoadCheck)
         ..LoadCheck::default()
     };
     let mut builder = SparseBuilder::new(domain, width, background)?;
-    let inside = |ijk: [i64; 3]| (0..3).all(|a| (i64::from(min[a])..=i64::from(max[a])).contains(&ijk[a]));
+    let inside =
+        |ijk: [i64; 3]| (0..3).all(|a| (i64::from(min[a])..=i64::from(max[a])).contains(&ijk[a]));
     let cell =
         |ijk: [i64; 3]| -> [usize; 3] { [0, 1, 2].map(|a| (ijk[a] - i64::from(min[a])) as usize) };
     let mut signed = [0f32; 3];
@@ -388,9 +386,7 @@ fn cache_box(grid: &VdbGrid) -> ([i32; 3], [i32; 3]) {
         }
     }
     for tile in &grid.tiles {
-        if (tile.active || tile.value[..width] != *background)
-            && !within(tile.origin, tile.size)
-        {
+        if (tile.active || tile.value[..width] != *background) && !within(tile.origin, tile.size) {
             include(tile.origin);
             include(tile.origin.map(|c| c + (tile.size - 1)));
         }

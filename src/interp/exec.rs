@@ -63,7 +63,8 @@ impl Interpreter {
                     }
                 };
                 if *is_param {
-                    self.param_values.push((name.name.clone(), value.to_string()));
+                    self.param_values
+                        .push((name.name.clone(), value.to_string()));
                 }
                 self.declare(&name.name, declared, value);
                 Ok(Flow::Normal)

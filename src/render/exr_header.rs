@@ -124,7 +124,10 @@ mod tests {
         // (1, 0.5) at depth 5: screen x = 1 / 5 / 1 = 0.2 → u = 0.6; screen y = 0.5 / 5 /
         // 0.5 = 0.2 → v = (1 − 0.2) / 2 = 0.4.
         let ndc = transform_point(&to_ndc, DVec3::new(1.0, 0.5, 0.0));
-        assert!((ndc.x - 0.6).abs() < 1e-12 && (ndc.y - 0.4).abs() < 1e-12, "{ndc}");
+        assert!(
+            (ndc.x - 0.6).abs() < 1e-12 && (ndc.y - 0.4).abs() < 1e-12,
+            "{ndc}"
+        );
         let centre = transform_point(&to_ndc, DVec3::new(0.0, 0.0, -3.0));
         assert!((centre.x - 0.5).abs() < 1e-12 && (centre.y - 0.5).abs() < 1e-12);
     }
@@ -135,12 +138,22 @@ mod tests {
         // through raster position (x + jx, y + jy) has NDC ((x + jx) / W, (y + jy) / H) and
         // camera z equal to its depth.
         let cameras = [
-            Camera::new(DVec3::new(3.0, 2.0, -4.0), DVec3::new(0.2, -0.1, 0.3), DVec3::Y, 40.0)
-                .unwrap(),
-            Camera::new(DVec3::new(-1.0, 6.0, 2.0), DVec3::ZERO, DVec3::new(0.3, 0.2, 1.0), 70.0)
-                .unwrap()
-                .with_aspect(1.25)
-                .unwrap(),
+            Camera::new(
+                DVec3::new(3.0, 2.0, -4.0),
+                DVec3::new(0.2, -0.1, 0.3),
+                DVec3::Y,
+                40.0,
+            )
+            .unwrap(),
+            Camera::new(
+                DVec3::new(-1.0, 6.0, 2.0),
+                DVec3::ZERO,
+                DVec3::new(0.3, 0.2, 1.0),
+                70.0,
+            )
+            .unwrap()
+            .with_aspect(1.25)
+            .unwrap(),
             Camera::new(DVec3::new(0.0, 1.0, 9.0), DVec3::ZERO, DVec3::Y, 30.0)
                 .unwrap()
                 .orthographic(3.0)
@@ -159,7 +172,10 @@ mod tests {
             ] {
                 let p = raster.ray(x, y, jx, jy).at(t);
                 let ndc = transform_point(&to_ndc, p);
-                let expected = ((x as f64 + jx) / width as f64, (y as f64 + jy) / height as f64);
+                let expected = (
+                    (x as f64 + jx) / width as f64,
+                    (y as f64 + jy) / height as f64,
+                );
                 assert!(
                     (ndc.x - expected.0).abs() < 1e-12 && (ndc.y - expected.1).abs() < 1e-12,
                     "{ndc} against {expected:?}"

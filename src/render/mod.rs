@@ -344,11 +344,15 @@ fn aov_names(settings: &RenderSettings, lights: &[Light]) -> Outcome<Vec<String>
         let mut layers: Vec<String> = Vec::new();
         for (i, light) in lights.iter().enumerate() {
             let layer = light.aov_name(i);
-            if layers.contains(&layer) || ["depth", "transmittance", "emission"].contains(&layer.as_str()) {
+            if layers.contains(&layer)
+                || ["depth", "transmittance", "emission"].contains(&layer.as_str())
+            {
                 return Err(Failure::new(format!(
                     "two AOV layers are called '{layer}' (light {i} and an earlier light or AOV)"
                 ))
-                .with_help("give each light its own name: distantlight(dir, color, name = \"key\")"));
+                .with_help(
+                    "give each light its own name: distantlight(dir, color, name = \"key\")",
+                ));
             }
             names.extend(["R", "G", "B"].map(|c| format!("{layer}.{c}")));
             layers.push(layer);

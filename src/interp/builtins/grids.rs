@@ -166,7 +166,13 @@ pub fn register(r: &mut Registry) {
 }
 
 /// Warns that a domain's box grew or shrank to a whole number of cells.
-fn warn_length_change(interp: &mut Interpreter, domain: &Domain, axis: usize, asked: f64, made: f64) {
+fn warn_length_change(
+    interp: &mut Interpreter,
+    domain: &Domain,
+    axis: usize,
+    asked: f64,
+    made: f64,
+) {
     let resolution = domain.resolution.unwrap_or([1, 1, 1]);
     interp.warnings.push(
         Diagnostic::warning(
@@ -204,16 +210,17 @@ fn cachesave(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
         (class, String::new())
     };
     let options = vdb_cache::GridOptions {
-        name: name.unwrap_or(if vector { "vel" } else { "density" }).to_string(),
+        name: name
+            .unwrap_or(if vector { "vel" } else { "density" })
+            .to_string(),
         class,
         vector_type,
         creator: crate::provenance::creator(),
     };
     let path = interp.files.writing(file)?;
     // Before the fill, which can take long: a file in the way should not cost it.
-    crate::output::check_writable(&path).map_err(|e| {
-        Failure::new(format!("cannot write VDB file '{}': {e}", path.display()))
-    })?;
+    crate::output::check_writable(&path)
+        .map_err(|e| Failure::new(format!("cannot write VDB file '{}': {e}", path.display())))?;
     let append = matches!(a.opt("append"), Some(Value::Bool(true)));
     let grid = vdb_cache::grid_of(&cache, &options)?;
     let mut metadata: Vec<(String, VdbMeta)> = crate::provenance::of(interp)
