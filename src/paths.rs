@@ -42,7 +42,7 @@ impl ScriptFiles {
         {
             return Ok(written);
         }
-        Ok(self.from_base(&path))
+        Ok(self.beside_script(&path))
     }
 
     /// Where a file a script writes, named `text`, lands.
@@ -53,11 +53,11 @@ impl ScriptFiles {
         }
         Ok(match crate::output::directory() {
             Some(directory) => directory.join(&path),
-            None => self.from_base(&path),
+            None => self.beside_script(&path),
         })
     }
 
-    fn from_base(&self, relative: &Path) -> PathBuf {
+    fn beside_script(&self, relative: &Path) -> PathBuf {
         match self.base() {
             Some(base) => base.join(relative),
             None => relative.to_path_buf(),

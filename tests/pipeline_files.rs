@@ -399,7 +399,7 @@ fn an_exr_carries_half_channels_named_lights_the_camera_and_the_run() {
             .attributes
             .other
             .iter()
-            .find(|(k, _)| k.to_string() == name)
+            .find(|(k, _)| k.as_slice() == name.as_bytes())
             .map(|(_, v)| v.clone())
     };
     let text = |name: &str| match attribute(name) {

@@ -122,7 +122,7 @@ pub fn grid_of(cache: &Cache, options: &GridOptions) -> Outcome<VdbGrid> {
         *b = sign * *v as f32;
     }
     let activity = if options.class == GridClass::LevelSet {
-        if !(background[0] > 0.0) {
+        if background[0].is_nan() || background[0] <= 0.0 {
             return Err(Failure::new(format!(
                 "a level set's background is its value outside and must be negative (felt's \
                  level sets are positive inside), found {}",

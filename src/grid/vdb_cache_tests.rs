@@ -50,7 +50,7 @@ fn random_cache(random: &mut Random, domain: Domain, width: usize) -> Cache {
                 .map(|n| {
                     let (i, j, k) = (n % res[0], n / res[0] % res[1], n / (res[0] * res[1]));
                     let shell = i == 0 || j == 0 || k == 0;
-                    if shell || random.next() % 4 == 0 {
+                    if shell || random.next().is_multiple_of(4) {
                         background[c] as f32
                     } else {
                         random.uniform(-10.0, 10.0) as f32
@@ -86,7 +86,7 @@ fn every_domain_comes_back_from_a_vdb_file() {
         let origin = random.vector(-100.0, 100.0);
         let orientation = match case % 4 {
             0 => DVec3::ZERO,
-            1 => DVec3::new(0.0, 0.0, random.uniform(-3.14, 3.14)),
+            1 => DVec3::new(0.0, 0.0, random.uniform(-3.1, 3.1)),
             _ => random.vector(-2.0, 2.0),
         };
         let domain = Domain::with_cells(origin, lengths, orientation, cell, cell_z).unwrap();
