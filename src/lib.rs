@@ -24,6 +24,8 @@ pub mod interp;
 pub mod interrupt;
 pub mod output;
 pub mod particles;
+pub mod paths;
+pub mod provenance;
 pub mod render;
 pub mod repl;
 pub mod sample;

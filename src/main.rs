@@ -58,7 +58,7 @@ enum Command {
         #[arg(long, value_name = "MB", value_parser = clap::value_parser!(u64).range(1..))]
         memory_limit: Option<u64>,
         /// Write outputs named by relative paths under DIR (created if missing) instead of
-        /// the current folder; inputs are still read from the current folder.
+        /// the script's folder; inputs are still read from the script's folder.
         #[arg(long, value_name = "DIR")]
         output_dir: Option<PathBuf>,
     },

@@ -7,11 +7,13 @@
 //! any other tool's files (not the 0600 of a private temporary). A target that is a symbolic
 //! link is written through: the link's final target is replaced and the link stays.
 //!
-//! `--output-dir DIR` (`set_directory`) sends relative output paths under DIR, creating the
-//! folders they name there, so one script can run many times side by side (a study's settings,
-//! a farm's frames) without overwriting itself. Absolute paths are written as given. A relative
-//! path the run wrote under DIR is also read back from there, so a script that saves a cache
-//! and loads it again sees its own file.
+//! Folders a file's path names that do not exist yet are created (with the umask's
+//! permissions, as `mkdir -p` makes them), so a script can write `renders/sq010/a.exr` on a
+//! fresh disk; a path through something that is not a folder is an error before any work.
+//!
+//! `--output-dir DIR` (`set_directory`) sends relative output paths under DIR, so one script
+//! can run many times side by side (a study's settings, a farm's frames) without overwriting
+//! itself; `paths` turns a script's names into paths, this module only writes them.
 
 use std::fs::File;
 use std::path::{Path, PathBuf};
@@ -53,41 +55,27 @@ pub fn set_directory(directory: &Path) -> Result<(), String> {
         .map_err(|_| String::from("the output folder is already set"))
 }
 
-/// Where a write of `path`, as the script named it, lands.
-pub fn target(path: &Path) -> PathBuf {
-    match DIRECTORY.get() {
-        Some(directory) if path.is_relative() => directory.join(path),
-        _ => path.to_path_buf(),
-    }
+/// The folder `--output-dir` named, if it named one.
+pub fn directory() -> Option<&'static Path> {
+    DIRECTORY.get().map(PathBuf::as_path)
 }
 
-/// Where a read of `path` comes from: the run's own copy under the output folder when there
-/// is one, else `path` as given.
-pub fn source(path: &Path) -> PathBuf {
-    let written = target(path);
-    if written != path && written.exists() {
-        written
-    } else {
-        path.to_path_buf()
-    }
-}
-
-/// Checks, before the work that produces it, that a file can be written at `path`: its folder
-/// exists (or will be made under the output folder). A render can take minutes; a typo in
-/// its folder should not cost them.
+/// Checks, before the work that produces it, that a file can be written at `path`: the
+/// nearest of its folders that exists is a folder (the missing ones are created when the file
+/// is written). A render can take minutes; a file in its way should not cost them.
 pub fn check_writable(path: &Path) -> Result<(), String> {
-    if DIRECTORY.get().is_some() && path.is_relative() {
-        return Ok(());
+    let mut folder = path.parent();
+    while let Some(f) = folder {
+        if f.as_os_str().is_empty() {
+            return Ok(());
+        }
+        match std::fs::metadata(f) {
+            Ok(meta) if meta.is_dir() => return Ok(()),
+            Ok(_) => return Err(format!("'{}' is not a folder", f.display())),
+            Err(_) => folder = f.parent(),
+        }
     }
-    let folder = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => return Ok(()),
-    };
-    match std::fs::metadata(folder) {
-        Ok(meta) if meta.is_dir() => Ok(()),
-        Ok(_) => Err(format!("'{}' is not a folder", folder.display())),
-        Err(_) => Err(format!("the folder '{}' does not exist", folder.display())),
-    }
+    Ok(())
 }
 
 /// The file a write to `path` should replace: `path` itself, or the final target of the
@@ -109,20 +97,21 @@ fn through_links(path: &Path) -> Result<PathBuf, String> {
     Err(String::from("too many levels of symbolic links"))
 }
 
-/// Writes a file at `path` (as the script named it) with `write`, atomically. The error is a
-/// sentence fragment for the caller's "cannot write ... 'path': " message.
+/// Writes a file at `path` (resolved already, see `paths`) with `write`, atomically, creating
+/// the folders it names that are missing. The error is a sentence fragment for the caller's
+/// "cannot write ... 'path': " message.
 pub fn write_atomically(
     path: &Path,
     write: impl FnOnce(&mut File) -> Result<(), String>,
 ) -> Result<(), String> {
-    let landing = target(path);
-    if DIRECTORY.get().is_some()
-        && path.is_relative()
-        && let Some(parent) = landing.parent()
+    check_writable(path)?;
+    if let Some(parent) = path.parent()
+        && !parent.as_os_str().is_empty()
     {
-        std::fs::create_dir_all(parent).map_err(|e| e.to_string())?;
+        std::fs::create_dir_all(parent)
+            .map_err(|e| format!("cannot create the folder '{}': {e}", parent.display()))?;
     }
-    let landing = through_links(&landing)?;
+    let landing = through_links(path)?;
     let directory = match landing.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),

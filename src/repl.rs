@@ -119,6 +119,8 @@ pub fn run() -> ExitCode {
             return ExitCode::from(1);
         }
     };
+    // At the prompt relative paths are relative to the current directory.
+    session.at_prompt = true;
     let words = Rc::new(RefCell::new(Vec::new()));
     refresh_words(&session, &words);
     let mut editor: Editor<FeltHelper, DefaultHistory> = match Editor::new() {

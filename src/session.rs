@@ -46,6 +46,9 @@ pub struct Session {
     /// Canonical paths of the files already loaded (imports run once).
     loaded: HashSet<PathBuf>,
     repl_inputs: usize,
+    /// An interactive session: relative paths stay relative to the current directory, also
+    /// in files run with `:load`.
+    pub at_prompt: bool,
 }
 
 impl Session {
@@ -58,6 +61,7 @@ impl Session {
             env: CheckEnv::default(),
             loaded: HashSet::new(),
             repl_inputs: 0,
+            at_prompt: false,
         };
         let mut units = Vec::new();
         for (name, text) in STDLIB {
@@ -239,6 +243,10 @@ impl Session {
     /// Loads, checks and runs a script file. Returns warnings on success.
     pub fn run_file(&mut self, path: &Path) -> Result<Vec<Diagnostic>, Vec<Diagnostic>> {
         let units = self.load(path)?;
+        // The script's folder is where its relative paths start (see `paths`).
+        if !self.at_prompt && self.interp.files.script.is_none() {
+            self.interp.files.script = path.canonicalize().ok();
+        }
         let diags = self.check(&units);
         if diags.iter().any(|d| d.is_error()) {
             return Err(diags);

@@ -58,10 +58,11 @@ fn examples_run_at_thumbnail_size() {
         v
     };
     assert!(examples.len() >= 4);
-    // Renders and meshes are written to the working directory: use a scratch one.
+    // Renders and meshes are written beside the script: run copies in a scratch folder.
     let scratch = tempfile::tempdir().unwrap();
-    std::env::set_current_dir(scratch.path()).unwrap();
-    for path in &examples {
+    for original in &examples {
+        let path = &scratch.path().join(original.file_name().unwrap());
+        std::fs::copy(original, path).unwrap();
         let text = std::fs::read_to_string(path).unwrap();
         let overrides: Vec<(&str, &str)> = SMALL
             .iter()

@@ -47,8 +47,7 @@ pub fn load_mesh(path: &Path) -> Outcome<Mesh> {
     };
     // A shape file is read whole, so it may be no larger than the memory budget.
     let limit = crate::grid::domain::memory_limit();
-    let bytes = crate::input::read_whole(&crate::output::source(path), limit, "a shape file")
-        .map_err(|e| cannot(&e))?;
+    let bytes = crate::input::read_whole(path, limit, "a shape file").map_err(|e| cannot(&e))?;
     let mesh = check_content(kind, &bytes).and_then(|()| match kind {
         Kind::Obj => parse_obj(&bytes).and_then(|mesh| {
             // Any bytes parse as an OBJ file with no records; binary ones were not meant as one.

@@ -64,11 +64,10 @@ pub fn default_mesh_domain(levelset: &dyn FieldSampler) -> Outcome<Domain> {
     }
     let cell = longest / (DEFAULT_MESH_CELLS - 2 * MARGIN_CELLS) as f64;
     let margin = DVec3::splat(MARGIN_CELLS as f64 * cell);
-    Domain::with_cells(
+    Domain::fitted(
         bounds.min - margin,
         bounds.size() + 2.0 * margin,
         DVec3::ZERO,
-        cell,
         cell,
     )
 }

@@ -3,9 +3,11 @@
 //! A domain is a corner `origin`, edge `lengths` along its own axes, and an `orientation`
 //! rotation vector (axis times angle, radians) from the world axes. With cells, samples sit at
 //! cell centres (cell `(i, j, k)` is centred at local `((i + ½)·cx, (j + ½)·cy, (k + ½)·cz)`).
-//! The one key decision: the number of cells along an axis is `round(length / cell)` (at least
-//! one) and the cell size is then adjusted to `length / count`, so the cells tile the box
-//! exactly; a script that asks for cell 0.1 over length 2 gets 20 cells of exactly 0.1.
+//! The one key decision: cells have exactly the size asked for (cubic with one cell size), and
+//! the number of cells along an axis is `round(length / cell)` (at least one); the box's length
+//! is then `count × cell`, keeping its origin. So cells tile the box exactly and a VDB file of
+//! the grid has cubic voxels; a length that is not a multiple of the cell moves the far faces
+//! by up to half a cell, which `length_change` reports so the script can be warned.
 
 use crate::diagnostic::vector_text;
 use crate::failure::{Failure, Outcome};
@@ -107,8 +109,31 @@ impl Domain {
         cell_xy: f64,
         cell_z: f64,
     ) -> Outcome<Domain> {
-        let mut domain = Domain::new(origin, lengths, orientation)?;
         let requested = DVec3::new(cell_xy, cell_xy, cell_z);
+        Domain::divided(origin, lengths, orientation, requested, Fit::Cells)
+    }
+
+    /// A domain of exactly `lengths` divided into about `cell`-sized cells, each axis's cell
+    /// adjusted to `length / count`: for felt's own working grids (light caches, meshing),
+    /// which must cover a box exactly and never reach a file.
+    pub fn fitted(origin: DVec3, lengths: DVec3, orientation: DVec3, cell: f64) -> Outcome<Domain> {
+        Domain::divided(
+            origin,
+            lengths,
+            orientation,
+            DVec3::splat(cell),
+            Fit::Lengths,
+        )
+    }
+
+    fn divided(
+        origin: DVec3,
+        lengths: DVec3,
+        orientation: DVec3,
+        requested: DVec3,
+        fit: Fit,
+    ) -> Outcome<Domain> {
+        let mut domain = Domain::new(origin, lengths, orientation)?;
         check_positive("cell size", requested)?;
         let mut resolution = [0usize; 3];
         let mut cells = 1f64;
@@ -129,12 +154,19 @@ impl Domain {
             ))
             .with_help("use a larger cell size or a smaller domain, or raise the limit with --memory-limit"));
         }
-        domain.cell = lengths
-            / DVec3::new(
-                resolution[0] as f64,
-                resolution[1] as f64,
-                resolution[2] as f64,
-            );
+        let counts = DVec3::new(
+            resolution[0] as f64,
+            resolution[1] as f64,
+            resolution[2] as f64,
+        );
+        match fit {
+            Fit::Cells => {
+                domain.cell = requested;
+                domain.lengths = requested * counts;
+                domain.check_representable()?;
+            }
+            Fit::Lengths => domain.cell = lengths / counts,
+        }
         // Neighbouring cell centres must be told apart, or a cache holds one value many times.
         let precision = domain.precision();
         if domain.cell.min_element() <= 16.0 * precision {
@@ -148,6 +180,15 @@ impl Domain {
         }
         domain.resolution = Some(resolution);
         Ok(domain)
+    }
+
+    /// How far the box's lengths moved from `requested` to make whole cells, when that is more
+    /// than rounding: `(axis, requested, made)` for the axis that moved most, relative to its
+    /// length.
+    pub fn length_change(&self, requested: DVec3) -> Option<(usize, f64, f64)> {
+        let relative = (self.lengths - requested).abs() / requested;
+        let axis = (0..3).max_by(|&a, &b| relative[a].total_cmp(&relative[b]))?;
+        (relative[axis] > LENGTH_TOLERANCE).then_some((axis, requested[axis], self.lengths[axis]))
     }
 
     /// The domain whose cells are `lattice`'s (the rotation is taken as given, not rebuilt
@@ -265,6 +306,18 @@ impl Domain {
     }
 }
 
+/// Which of a divided domain's numbers are kept as given.
+#[derive(Clone, Copy)]
+enum Fit {
+    /// The cell size; the lengths become whole cells.
+    Cells,
+    /// The lengths; the cells shrink or grow to tile them.
+    Lengths,
+}
+
+/// A relative change of a domain's length beyond rounding: smaller ones are not reported.
+const LENGTH_TOLERANCE: f64 = 1e-9;
+
 /// The largest rotation angle an orientation may ask for: beyond it one unit in the last place
 /// of the angle is more than a thousandth of a radian, so the rotation is noise.
 const MAX_ANGLE: f64 = 1e12;
@@ -331,6 +384,24 @@ mod tests {
         assert!((d.cell_center(19, 19, 19) - DVec3::splat(0.95)).length() < 1e-12);
         let idx = d.world_to_index(d.cell_center(3, 7, 11));
         assert!((idx - DVec3::new(3.0, 7.0, 11.0)).length() < 1e-9);
+    }
+
+    #[test]
+    fn cells_are_cubic_and_the_length_follows_them() {
+        // 1 / 0.3 = 3.33 cells: three cells of exactly 0.3, and a box 0.9 long.
+        let lengths = DVec3::new(1.0, 2.0, 0.45);
+        let d = Domain::with_cells(DVec3::ONE, lengths, DVec3::ZERO, 0.3, 0.3).unwrap();
+        assert_eq!(d.resolution, Some([3, 7, 2]));
+        assert_eq!(d.cell, DVec3::splat(0.3));
+        assert!((d.lengths - DVec3::new(0.9, 2.1, 0.6)).abs().max_element() < 1e-15);
+        // The far face of z moved most: 0.45 became 0.6 (a third of the length).
+        let (axis, asked, made) = d.length_change(lengths).unwrap();
+        assert_eq!((axis, asked), (2, 0.45));
+        assert!((made - 0.6).abs() < 1e-15);
+        // Whole cells up to rounding are not a change.
+        let exact =
+            Domain::with_cells(DVec3::ZERO, DVec3::splat(2.0), DVec3::ZERO, 0.1, 0.1).unwrap();
+        assert_eq!(exact.length_change(DVec3::splat(2.0)), None);
     }
 
     #[test]

@@ -13,15 +13,76 @@ use crate::diagnostic::grouped;
 use crate::failure::{Failure, Outcome};
 use crate::grid::cache::{Cache, SparseBuilder};
 use crate::grid::domain::{Domain, memory_limit};
-use crate::grid::vdb::{self, Activity, Compression, VdbGrid, VdbValues};
+use crate::grid::vdb::{self, Activity, Compression, VdbGrid, VdbMeta, VdbValues};
 use glam::{DMat3, DMat4, DQuat, DVec3};
 use std::path::Path;
 
-/// Writes a scalar or vector cache as one grid called `name` (filling it first).
-pub fn save(cache: &Cache, path: &Path, name: &str) -> Outcome<()> {
-    let (value_type, class) = match cache.width() {
-        1 => (VdbValues::Float, vdb::FOG_VOLUME),
-        3 => (VdbValues::Vec3, vdb::UNKNOWN_CLASS),
+/// What a grid is, in OpenVDB's words: its `class` metadata.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GridClass {
+    FogVolume,
+    /// A signed distance, stored negative inside as OpenVDB's level sets are (felt's level
+    /// sets are positive inside: the values are negated on the way out and back in).
+    LevelSet,
+    Unknown,
+}
+
+impl GridClass {
+    pub fn parse(text: &str) -> Outcome<GridClass> {
+        match text {
+            vdb::FOG_VOLUME => Ok(GridClass::FogVolume),
+            vdb::LEVEL_SET => Ok(GridClass::LevelSet),
+            vdb::UNKNOWN_CLASS => Ok(GridClass::Unknown),
+            other => Err(Failure::new(format!(
+                "class must be \"fog volume\", \"level set\" or \"unknown\", found \"{other}\""
+            ))),
+        }
+    }
+
+    fn name(self) -> &'static str {
+        match self {
+            GridClass::FogVolume => vdb::FOG_VOLUME,
+            GridClass::LevelSet => vdb::LEVEL_SET,
+            GridClass::Unknown => vdb::UNKNOWN_CLASS,
+        }
+    }
+}
+
+/// OpenVDB's names for how a vector grid's values transform with its index space (the
+/// `vector_type` metadata).
+pub const VECTOR_TYPES: [&str; 5] = [
+    "invariant",
+    "covariant",
+    "covariant normalize",
+    "contravariant relative",
+    "contravariant absolute",
+];
+
+/// The vector type of a grid felt writes unless told otherwise: velocities and
+/// displacements, which is what felt's vector caches usually hold.
+pub const DEFAULT_VECTOR_TYPE: &str = "contravariant relative";
+
+/// Grid metadata holding the inclusive index box of the cache a grid was saved from, so
+/// `cacheload` gives back the cache's own domain and not the box of its non-empty leaves.
+const DOMAIN_MIN_KEY: &str = "felt_domain_min";
+const DOMAIN_MAX_KEY: &str = "felt_domain_max";
+
+/// How a cache becomes a VDB grid.
+#[derive(Clone, Debug)]
+pub struct GridOptions {
+    pub name: String,
+    pub class: GridClass,
+    /// One of `VECTOR_TYPES`; ignored for scalar grids.
+    pub vector_type: String,
+    /// The grid's `creator` metadata.
+    pub creator: String,
+}
+
+/// A scalar or vector cache as a VDB grid (filling the cache first).
+pub fn grid_of(cache: &Cache, options: &GridOptions) -> Outcome<VdbGrid> {
+    let value_type = match cache.width() {
+        1 => VdbValues::Float,
+        3 => VdbValues::Vec3,
         _ => {
             return Err(
                 Failure::new("OpenVDB files hold scalar and vector grids, not matrices")
@@ -29,6 +90,11 @@ pub fn save(cache: &Cache, path: &Path, name: &str) -> Outcome<()> {
             );
         }
     };
+    if value_type == VdbValues::Vec3 && options.class == GridClass::LevelSet {
+        return Err(Failure::new(
+            "a level set is a scalar grid, not a vector one",
+        ));
+    }
     let domain = cache.domain();
     let res = cache.resolution();
     if res.iter().any(|&n| n > i32::MAX as usize / 2) {
@@ -36,6 +102,12 @@ pub fn save(cache: &Cache, path: &Path, name: &str) -> Outcome<()> {
             "this cache is too large for an OpenVDB index space",
         ));
     }
+    // OpenVDB's level sets are negative inside, felt's positive.
+    let sign = if options.class == GridClass::LevelSet {
+        -1.0f32
+    } else {
+        1.0
+    };
     let rotation = domain.rotation;
     let axes = rotation * DMat3::from_diagonal(domain.cell);
     let corner = domain.origin + rotation * (domain.cell * 0.5);
@@ -47,23 +119,80 @@ pub fn save(cache: &Cache, path: &Path, name: &str) -> Outcome<()> {
     );
     let mut background = [0f32; 3];
     for (b, v) in background.iter_mut().zip(cache.background_values()) {
-        *b = *v as f32;
+        *b = sign * *v as f32;
     }
+    let activity = if options.class == GridClass::LevelSet {
+        if background[0].is_nan() || background[0] <= 0.0 {
+            return Err(Failure::new(format!(
+                "a level set's background is its value outside and must be negative (felt's \
+                 level sets are positive inside), found {}",
+                -background[0]
+            ))
+            .with_help("give the cache a background: scalarcache c(d, -1.0)"));
+        }
+        Activity::NarrowBand
+    } else {
+        Activity::AwayFromBackground(0.0)
+    };
     cache.prepare()?;
     cache.fill_all();
     let max = res.map(|n| n as i32 - 1);
-    let grid = VdbGrid::new(name, class, value_type, background, index_to_world).with_values_from(
-        [0, 0, 0],
-        max,
-        Activity::AwayFromBackground(0.0),
-        |ijk, out| {
-            let value = cache.value_at_cell(ijk[0] as usize, ijk[1] as usize, ijk[2] as usize);
-            if let Some(v) = value {
-                out.copy_from_slice(v);
+    let mut grid = VdbGrid::new(
+        &options.name,
+        options.class.name(),
+        value_type,
+        background,
+        index_to_world,
+    )
+    .with_values_from([0, 0, 0], max, activity, |ijk, out| {
+        let value = cache.value_at_cell(ijk[0] as usize, ijk[1] as usize, ijk[2] as usize);
+        if let Some(v) = value {
+            for (o, x) in out.iter_mut().zip(v) {
+                *o = sign * x;
             }
-        },
-    )?;
-    vdb::write_file(path, &[grid], Compression::Zip)
+        }
+    })?;
+    grid.metadata = vec![
+        ("creator".into(), VdbMeta::String(options.creator.clone())),
+        (DOMAIN_MIN_KEY.into(), VdbMeta::Vec3i([0, 0, 0])),
+        (DOMAIN_MAX_KEY.into(), VdbMeta::Vec3i(max)),
+    ];
+    if value_type == VdbValues::Vec3 {
+        if !VECTOR_TYPES.contains(&options.vector_type.as_str()) {
+            return Err(Failure::new(format!(
+                "vector_type must be one of {}, found \"{}\"",
+                VECTOR_TYPES.map(|t| format!("\"{t}\"")).join(", "),
+                options.vector_type
+            )));
+        }
+        grid.metadata.push((
+            "vector_type".into(),
+            VdbMeta::String(options.vector_type.clone()),
+        ));
+    }
+    Ok(grid)
+}
+
+/// Writes `grid` to the VDB file at `path` with the file-level `metadata`. With `keep`, the
+/// grids already in the file stay, except one of the same name, which `grid` replaces where
+/// it was.
+pub fn save(path: &Path, grid: VdbGrid, keep: bool, metadata: &[(String, VdbMeta)]) -> Outcome<()> {
+    let mut grids = if keep && path.exists() {
+        vdb::read_file(path).map_err(|f| Failure {
+            message: format!(
+                "cannot add grid '{}' to the VDB file: {}",
+                grid.name, f.message
+            ),
+            ..f
+        })?
+    } else {
+        Vec::new()
+    };
+    match grids.iter_mut().find(|g| g.name == grid.name) {
+        Some(same) => *same = grid,
+        None => grids.push(grid),
+    }
+    vdb::write_file_with_metadata(path, &grids, Compression::Zip, metadata)
 }
 
 /// What a loaded grid held that a script author should hear about.
@@ -128,7 +257,7 @@ pub fn load(path: &Path, name: &str, width: usize) -> Outcome<(Cache, LoadCheck)
         }));
     }
     let (rotation, voxel) = decompose(&grid.index_to_world, name)?;
-    let (min, max) = grid.index_bounds().unwrap_or(([0; 3], [0; 3]));
+    let (min, max) = cache_box(&grid);
     // In i64: the box of voxels at -2^30 and 2^30 is 2^31 + 8 wide, past i32.
     let extent: [i64; 3] = [0, 1, 2].map(|a| i64::from(max[a]) - i64::from(min[a]) + 1);
     let bytes = extent.iter().map(|&n| n as f64).product::<f64>() * 4.0 * width as f64;
@@ -155,21 +284,43 @@ pub fn load(path: &Path, name: &str, width: usize) -> Outcome<(Cache, LoadCheck)
     let (axis, angle) = DQuat::from_mat3(&rotation).to_axis_angle();
     let domain = Domain::with_cells(origin, dims * voxel, axis * angle, voxel.x, voxel.z)?;
     domain.check_grid_memory(width)?;
-    let background: Vec<f64> = grid.background[..width].iter().map(|&b| b as f64).collect();
+    // felt's level sets are positive inside, OpenVDB's negative.
+    let sign = if grid.class == vdb::LEVEL_SET {
+        -1.0f32
+    } else {
+        1.0
+    };
+    let background: Vec<f64> = grid.background[..width]
+        .iter()
+        .map(|&b| f64::from(sign * b))
+        .collect();
     let mut check = LoadCheck {
         bad_background: background.iter().any(|b| !b.is_finite()),
         ..LoadCheck::default()
     };
     let mut builder = SparseBuilder::new(domain, width, background)?;
+    let inside =
+        |ijk: [i64; 3]| (0..3).all(|a| (i64::from(min[a])..=i64::from(max[a])).contains(&ijk[a]));
     let cell =
         |ijk: [i64; 3]| -> [usize; 3] { [0, 1, 2].map(|a| (ijk[a] - i64::from(min[a])) as usize) };
+    let mut signed = [0f32; 3];
+    let mut set = |builder: &mut SparseBuilder, ijk: [i64; 3], value: &[f32]| -> Outcome<()> {
+        // Outside the cache's box every voxel holds the background (see `cache_box`).
+        if !inside(ijk) {
+            return Ok(());
+        }
+        for (s, v) in signed.iter_mut().zip(value) {
+            *s = sign * v;
+        }
+        builder.set(cell(ijk), &signed[..value.len()])
+    };
     for leaf in &grid.leaves {
         for offset in 0..vdb::LEAF_VOXELS {
             let local = [offset >> 6, (offset >> 3) & 7, offset & 7];
             let ijk = [0, 1, 2].map(|a| i64::from(leaf.origin[a]) + local[a] as i64);
             let value = &leaf.values[offset * width..(offset + 1) * width];
             check.count(1, value);
-            builder.set(cell(ijk), value)?;
+            set(&mut builder, ijk, value)?;
         }
     }
     for tile in &grid.tiles {
@@ -183,7 +334,7 @@ pub fn load(path: &Path, name: &str, width: usize) -> Outcome<(Cache, LoadCheck)
             for j in 0..size {
                 for k in 0..size {
                     let ijk = [origin[0] + i, origin[1] + j, origin[2] + k];
-                    builder.set(cell(ijk), &tile.value[..width])?;
+                    set(&mut builder, ijk, &tile.value[..width])?;
                 }
             }
         }
@@ -193,6 +344,54 @@ pub fn load(path: &Path, name: &str, width: usize) -> Outcome<(Cache, LoadCheck)
         .with_label(format!("cacheload {}#{name}", path.display()))
         .with_profile("cacheload");
     Ok((cache, check))
+}
+
+/// The index box a loaded grid's cache covers: for a grid felt saved, the saved cache's own
+/// box (recorded in its metadata), grown to any voxel outside it that is active or not the
+/// background; for any other grid, the box of all its leaves and tiles.
+/// An empty grid without that metadata gives a single voxel at the origin.
+fn cache_box(grid: &VdbGrid) -> ([i32; 3], [i32; 3]) {
+    let leaves = grid.index_bounds().unwrap_or(([0; 3], [0; 3]));
+    let (Some(VdbMeta::Vec3i(lo)), Some(VdbMeta::Vec3i(hi))) =
+        (grid.meta(DOMAIN_MIN_KEY), grid.meta(DOMAIN_MAX_KEY))
+    else {
+        return leaves;
+    };
+    let (mut lo, mut hi) = (*lo, *hi);
+    if (0..3).any(|a| lo[a] > hi[a]) {
+        return leaves;
+    }
+    let width = grid.components();
+    let background = &grid.background[..width];
+    let saved = (lo, hi);
+    let within = |first: [i32; 3], size: i32| {
+        (0..3).all(|a| first[a] >= saved.0[a] && first[a] + (size - 1) <= saved.1[a])
+    };
+    let mut include = |ijk: [i32; 3]| {
+        for a in 0..3 {
+            lo[a] = lo[a].min(ijk[a]);
+            hi[a] = hi[a].max(ijk[a]);
+        }
+    };
+    for leaf in &grid.leaves {
+        if within(leaf.origin, vdb::LEAF_DIM) {
+            continue;
+        }
+        for offset in 0..vdb::LEAF_VOXELS {
+            let value = &leaf.values[offset * width..(offset + 1) * width];
+            if leaf.is_active(offset) || value != background {
+                let local = [offset >> 6, (offset >> 3) & 7, offset & 7];
+                include([0, 1, 2].map(|a| leaf.origin[a] + local[a] as i32));
+            }
+        }
+    }
+    for tile in &grid.tiles {
+        if (tile.active || tile.value[..width] != *background) && !within(tile.origin, tile.size) {
+            include(tile.origin);
+            include(tile.origin.map(|c| c + (tile.size - 1)));
+        }
+    }
+    (lo, hi)
 }
 
 /// Rotation and per-axis voxel size of an index-to-world map, if it has no shear or reflection
@@ -299,3 +498,7 @@ mod tests {
         );
     }
 }
+
+#[cfg(test)]
+#[path = "vdb_cache_tests.rs"]
+mod round_trip_tests;

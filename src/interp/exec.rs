@@ -54,6 +54,10 @@ impl Interpreter {
                         }
                     }
                 };
+                if *is_param {
+                    self.param_values
+                        .push((name.name.clone(), value.to_string()));
+                }
                 self.declare(&name.name, declared, value);
                 Ok(Flow::Normal)
             }

@@ -80,6 +80,11 @@ pub struct Interpreter {
     pub written_caches: Vec<(std::sync::Weak<crate::grid::cache::Cache>, Span)>,
     /// Field graphs larger than this get a warning (once per run).
     pub graph_warning_nodes: usize,
+    /// Where relative paths start and which files the run wrote (see `paths`).
+    pub files: crate::paths::ScriptFiles,
+    /// Every `param` as it was set, in declaration order, with its value as text: what an
+    /// output file records about the run that made it.
+    pub param_values: Vec<(String, String)>,
     /// The node-table size at which field graphs are next counted (see `check_graph_size`).
     graph_check_at: usize,
     /// Whether the large-graph warning was given (it is given once per run).
@@ -112,6 +117,8 @@ impl Interpreter {
             graph_check_at: eval::GRAPH_WARNING_NODES,
             graph_warned: false,
             written_caches: Vec::new(),
+            files: crate::paths::ScriptFiles::default(),
+            param_values: Vec::new(),
         }
     }
 

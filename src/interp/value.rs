@@ -300,20 +300,22 @@ impl fmt::Display for Value {
                     None => write!(f, ", fov {})", format_float(c.fov_degrees)),
                 }
             }
-            Value::Light(light) => match light.as_ref() {
-                Light::Distant(l) => write!(
+            Value::Light(light) => {
+                let (kind, place, at, color, name) = match light.as_ref() {
+                    Light::Distant(l) => ("distantlight", "dir", l.direction, l.color, &l.name),
+                    Light::Point(l) => ("pointlight", "pos", l.position, l.color, &l.name),
+                };
+                write!(
                     f,
-                    "distantlight(dir {}, color {})",
-                    format_vector(l.direction),
-                    format_vector(l.color)
-                ),
-                Light::Point(l) => write!(
-                    f,
-                    "pointlight(pos {}, color {})",
-                    format_vector(l.position),
-                    format_vector(l.color)
-                ),
-            },
+                    "{kind}({place} {}, color {}",
+                    format_vector(at),
+                    format_vector(color)
+                )?;
+                match name {
+                    Some(name) => write!(f, ", name {name})"),
+                    None => f.write_str(")"),
+                }
+            }
             Value::Particles(p) => {
                 let names: Vec<&str> = std::iter::once(crate::particles::POSITION)
                     .chain(p.attributes.iter().map(|a| a.name.as_str()))

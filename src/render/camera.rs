@@ -176,20 +176,38 @@ impl Camera {
         (p - self.eye).dot(self.forward)
     }
 
-    /// A ray generator for an image of `width × height` pixels.
-    pub fn raster(&self, width: usize, height: usize) -> Raster {
+    /// The camera's right, up and forward unit vectors, perpendicular to each other.
+    pub fn axes(&self) -> (DVec3, DVec3, DVec3) {
+        (self.right, self.true_up, self.forward)
+    }
+
+    /// Half the image plane's width and height for an image of `width × height` pixels: at
+    /// unit distance from the eye for a perspective camera, in world units for an
+    /// orthographic one.
+    pub fn half_extent(&self, width: usize, height: usize) -> (f64, f64) {
         let aspect = self.aspect.unwrap_or(width as f64 / height.max(1) as f64);
         let half_width = match self.ortho_width {
             Some(w) => 0.5 * w,
             None => (0.5 * self.fov_degrees.to_radians()).tan(),
         };
+        (half_width, half_width / aspect)
+    }
+
+    /// Whether the camera is orthographic.
+    pub fn is_orthographic(&self) -> bool {
+        self.ortho_width.is_some()
+    }
+
+    /// A ray generator for an image of `width × height` pixels.
+    pub fn raster(&self, width: usize, height: usize) -> Raster {
+        let (half_width, half_height) = self.half_extent(width, height);
         Raster {
             eye: self.eye,
             forward: self.forward,
             right: self.right,
             up: self.true_up,
             half_width,
-            half_height: half_width / aspect,
+            half_height,
             inv_width: 1.0 / width.max(1) as f64,
             inv_height: 1.0 / height.max(1) as f64,
             ortho: self.ortho_width.is_some(),

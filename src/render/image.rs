@@ -1,8 +1,8 @@
 //! Rendered images and the files they are written to.
 //!
 //! An `Image` holds premultiplied RGBA in linear light, one `[f32; 4]` per pixel (row-major,
-//! top row first), plus named AOV channels. `.exr` files get every channel as 32-bit float,
-//! scanline blocks with ZIP compression (every compositor reads them quickly; the `exr` crate's
+//! top row first), plus named AOV channels. `.exr` files get every channel as 32-bit float
+//! (or 16-bit half on request, depth excepted), scanline blocks with ZIP compression (every compositor reads them quickly; the `exr` crate's
 //! default, tiled RLE, is avoided). `.png` files are 8-bit previews: the premultiplied colour is
 //! clipped to [0, 1]; the alpha is raised where needed to at least the largest colour channel
 //! (emission in a thin medium can be brighter than it is opaque); the colour is divided by that
@@ -80,8 +80,36 @@ impl Image {
     }
 }
 
+/// How an OpenEXR file is written: its sample precision and the header attributes beyond
+/// the ones the format requires (see `exr_header`).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ExrOptions {
+    /// Colour and AOV channels as 16-bit halves, as most compositing is done; depth stays
+    /// 32-bit, since a half's 11 bits cannot hold a depth far from the camera.
+    pub half: bool,
+    pub attributes: Vec<(String, HeaderValue)>,
+}
+
+/// A header attribute value.
+#[derive(Clone, Debug, PartialEq)]
+pub enum HeaderValue {
+    Text(String),
+    /// An `m44f`, row by row in OpenEXR's (Imath's) order: points are row vectors, the
+    /// translation is the last row.
+    Matrix([[f32; 4]; 4]),
+}
+
+/// The largest finite half float.
+const HALF_MAX: f32 = 65504.0;
+
 /// Writes `image` to `path`: OpenEXR for `.exr`, an 8-bit preview for `.png`.
 pub fn write_image(path: &Path, image: &Image) -> Outcome<()> {
+    write_image_with(path, image, &ExrOptions::default()).map(|_| ())
+}
+
+/// `write_image` with OpenEXR options (a PNG ignores them). Returns how many samples were
+/// above the largest half float and written as it.
+pub fn write_image_with(path: &Path, image: &Image, options: &ExrOptions) -> Outcome<u64> {
     // The writers lay the channels out again before encoding them.
     let channels = 4 + image.aovs.len();
     let _copy = crate::budget::reserve(
@@ -93,15 +121,17 @@ pub fn write_image(path: &Path, image: &Image) -> Outcome<()> {
         .extension()
         .and_then(|e| e.to_str())
         .map(|e| e.to_ascii_lowercase());
+    let mut clamped = 0;
     match extension.as_deref() {
-        Some("exr") => atomically(path, |file| write_exr(file, image)),
-        Some("png") => atomically(path, |file| write_png(file, image)),
+        Some("exr") => atomically(path, |file| write_exr(file, image, options, &mut clamped))?,
+        Some("png") => atomically(path, |file| write_png(file, image))?,
         _ => Err(Failure::new(format!(
             "cannot tell the image format of '{}'",
             path.display()
         ))
-        .with_help("end the file name in .exr (full float channels) or .png (8-bit preview)")),
+        .with_help("end the file name in .exr (full float channels) or .png (8-bit preview)"))?,
     }
+    Ok(clamped)
 }
 
 /// Writes through `output::write_atomically`, with the image's own message on failure.
@@ -113,27 +143,78 @@ fn atomically(
         .map_err(|e| Failure::new(format!("cannot write image '{}': {e}", path.display())))
 }
 
-fn write_exr(file: &mut std::fs::File, image: &Image) -> Result<(), String> {
+fn write_exr(
+    file: &mut std::fs::File,
+    image: &Image,
+    options: &ExrOptions,
+    clamped: &mut u64,
+) -> Result<(), String> {
     use exr::prelude::{
-        AnyChannel, AnyChannels, Encoding, FlatSamples, Image as ExrImage, Layer, LayerAttributes,
-        WritableImage,
+        AnyChannel, AnyChannels, AttributeValue, Encoding, FlatSamples, Image as ExrImage, Layer,
+        LayerAttributes, Text, WritableImage, f16,
     };
-    let component = |c: usize| FlatSamples::F32(image.rgba.iter().map(|p| p[c]).collect());
-    let mut channels = vec![
-        AnyChannel::new("R", component(0)),
-        AnyChannel::new("G", component(1)),
-        AnyChannel::new("B", component(2)),
-        AnyChannel::new("A", component(3)),
-    ];
+    let mut samples = |name: &str, values: Vec<f32>| {
+        if options.half && name != "depth.Z" {
+            let halves = values
+                .into_iter()
+                .map(|v| {
+                    if v > HALF_MAX {
+                        *clamped += 1;
+                    }
+                    f16::from_f32(v.min(HALF_MAX))
+                })
+                .collect();
+            FlatSamples::F16(halves)
+        } else {
+            FlatSamples::F32(values)
+        }
+    };
+    let component = |c: usize| image.rgba.iter().map(|p| p[c]).collect::<Vec<f32>>();
+    let mut channels = Vec::new();
+    for (c, name) in ["R", "G", "B", "A"].into_iter().enumerate() {
+        channels.push(AnyChannel::new(name, samples(name, component(c))));
+    }
     for (name, values) in &image.aovs {
         channels.push(AnyChannel::new(
             name.as_str(),
-            FlatSamples::F32(values.clone()),
+            samples(name, values.clone()),
         ));
+    }
+    let mut attributes = LayerAttributes::default();
+    for (name, value) in &options.attributes {
+        // OpenEXR text is Latin-1; anything else is written as '?'.
+        let latin1 = |text: &str| {
+            let bytes: Vec<u8> = text
+                .chars()
+                .map(|c| u8::try_from(u32::from(c)).unwrap_or(b'?'))
+                .collect();
+            Text::from_slice_unchecked(&bytes)
+        };
+        let value = match value {
+            HeaderValue::Text(text) => AttributeValue::Text(latin1(text)),
+            HeaderValue::Matrix(rows) => {
+                let mut flat = [0f32; 16];
+                for (i, v) in rows.iter().flatten().enumerate() {
+                    flat[i] = *v;
+                }
+                // The standard attributes have fields of their own in the writer.
+                match name.as_str() {
+                    "worldToCamera" => attributes.world_to_camera = Some(flat),
+                    "worldToNDC" => attributes.world_to_normalized_device = Some(flat),
+                    _ => {
+                        attributes
+                            .other
+                            .insert(latin1(name), AttributeValue::Matrix4x4(flat));
+                    }
+                }
+                continue;
+            }
+        };
+        attributes.other.insert(latin1(name), value);
     }
     let layer = Layer::new(
         (image.width, image.height),
-        LayerAttributes::default(),
+        attributes,
         Encoding::SMALL_LOSSLESS,
         AnyChannels::sort(channels.into()),
     );

@@ -109,10 +109,15 @@ fn bad_paths_and_images_are_named_errors() {
     let image = sample_image();
     let err = write_image(&dir.path().join("out.tiff"), &image).unwrap_err();
     assert!(err.message.contains("out.tiff") && err.help.is_some());
+    // Missing folders are made; a file where a folder should be is an error naming the path.
     let missing = dir.path().join("no/such/dir/out.exr");
-    let err = write_image(&missing, &image).unwrap_err();
+    write_image(&missing, &image).unwrap();
+    assert!(missing.exists());
+    std::fs::write(dir.path().join("flat"), "").unwrap();
+    let blocked = dir.path().join("flat/dir/out.exr");
+    let err = write_image(&blocked, &image).unwrap_err();
     assert!(
-        err.message.contains("no/such/dir/out.exr"),
+        err.message.contains("flat/dir/out.exr") && err.message.contains("is not a folder"),
         "{}",
         err.message
     );

@@ -17,6 +17,8 @@ pub struct DistantLight {
     pub direction: DVec3,
     /// Strength per channel, the same everywhere.
     pub color: DVec3,
+    /// What its AOV channels are called (`key.R`, ...); `None` gives `light0`-style names.
+    pub name: Option<String>,
 }
 
 /// Light radiating from a point in all directions.
@@ -25,6 +27,8 @@ pub struct PointLight {
     pub position: DVec3,
     /// Strength per channel at distance 1; at distance `r` it is `color / r²`.
     pub color: DVec3,
+    /// What its AOV channels are called; `None` gives `light0`-style names.
+    pub name: Option<String>,
 }
 
 /// A light source of the scene.
@@ -53,6 +57,7 @@ impl Light {
         Ok(Light::Distant(DistantLight {
             direction: direction.normalize(),
             color,
+            name: None,
         }))
     }
 
@@ -64,7 +69,41 @@ impl Light {
                 "point light position must be finite, got {position}"
             )));
         }
-        Ok(Light::Point(PointLight { position, color }))
+        Ok(Light::Point(PointLight {
+            position,
+            color,
+            name: None,
+        }))
+    }
+
+    /// The light with a name for its AOV channels: letters, digits, `_` and `-` (a `.` would
+    /// split the channel into layers).
+    pub fn named(mut self, name: &str) -> Outcome<Light> {
+        let valid = !name.is_empty()
+            && name
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-');
+        if !valid {
+            return Err(Failure::new(format!(
+                "a light's name must be letters, digits, '_' or '-', found \"{name}\""
+            ))
+            .with_help("the name becomes the light's AOV channels, NAME.R, NAME.G and NAME.B"));
+        }
+        let slot = match &mut self {
+            Light::Distant(l) => &mut l.name,
+            Light::Point(l) => &mut l.name,
+        };
+        *slot = Some(name.to_string());
+        Ok(self)
+    }
+
+    /// The layer name of this light's AOV channels, as the `index`-th light of a render.
+    pub fn aov_name(&self, index: usize) -> String {
+        let name = match self {
+            Light::Distant(l) => &l.name,
+            Light::Point(l) => &l.name,
+        };
+        name.clone().unwrap_or_else(|| format!("light{index}"))
     }
 
     /// The unit direction the light travels at `p`, and its unshadowed strength there.

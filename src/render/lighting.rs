@@ -250,7 +250,7 @@ fn shadow_domain(
     let longest = bounds.size().max_element();
     let cells = |max_cells: f64| {
         let cell = cell_size.unwrap_or(step.max(longest / max_cells));
-        Domain::with_cells(bounds.min, bounds.size(), DVec3::ZERO, cell, cell)
+        Domain::fitted(bounds.min, bounds.size(), DVec3::ZERO, cell)
     };
     let swept = cells(MAX_SWEPT_CELLS)?;
     let marches = match method {

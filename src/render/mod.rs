@@ -15,6 +15,7 @@
 
 mod adaptive;
 pub mod camera;
+pub mod exr_header;
 pub mod image;
 pub mod light;
 mod lighting;
@@ -33,7 +34,7 @@ mod testing;
 mod tests;
 
 pub use camera::Camera;
-pub use image::{Image, write_image};
+pub use image::{ExrOptions, HeaderValue, Image, write_image, write_image_with};
 pub use light::{DistantLight, Light, PointLight};
 pub use phase::Phase;
 pub use settings::{Adaptive, Aovs, MultiScatter, RenderSettings, Shadows};
@@ -196,7 +197,7 @@ pub fn render_with_stats(
         ))
         .with_help("move the camera nearer the box (a smaller fov keeps the framing)"));
     }
-    let aov_names = aov_names(settings, scene.lights.len());
+    let aov_names = aov_names(settings, &scene.lights)?;
     let pixels = settings.width as f64 * settings.height as f64;
     // The tiles and the image they are gathered into, from the budget before any ray is
     // marched: a framebuffer too large for memory fails here, not after the render.
@@ -328,7 +329,7 @@ fn march_box(scene: &Scene, settings: &RenderSettings) -> Outcome<Aabb> {
 }
 
 /// AOV channel names in the order the march writes them.
-fn aov_names(settings: &RenderSettings, lights: usize) -> Vec<String> {
+fn aov_names(settings: &RenderSettings, lights: &[Light]) -> Outcome<Vec<String>> {
     let a = &settings.aovs;
     let mut names = Vec::new();
     if a.depth {
@@ -341,11 +342,24 @@ fn aov_names(settings: &RenderSettings, lights: usize) -> Vec<String> {
         names.extend(["emission.R", "emission.G", "emission.B"].map(String::from));
     }
     if a.lights {
-        for i in 0..lights {
-            names.extend(["R", "G", "B"].map(|c| format!("light{i}.{c}")));
+        let mut layers: Vec<String> = Vec::new();
+        for (i, light) in lights.iter().enumerate() {
+            let layer = light.aov_name(i);
+            if layers.contains(&layer)
+                || ["depth", "transmittance", "emission"].contains(&layer.as_str())
+            {
+                return Err(Failure::new(format!(
+                    "two AOV layers are called '{layer}' (light {i} and an earlier light or AOV)"
+                ))
+                .with_help(
+                    "give each light its own name: distantlight(dir, color, name = \"key\")",
+                ));
+            }
+            names.extend(["R", "G", "B"].map(|c| format!("{layer}.{c}")));
+            layers.push(layer);
         }
     }
-    names
+    Ok(names)
 }
 
 /// A progress bar on stderr, shown only on a terminal and only once a render has run for a

@@ -25,8 +25,8 @@ mod write_tree;
 mod tests;
 
 pub use build::Activity;
-pub use read::{read_bytes, read_file, read_grid, read_grid_bytes};
-pub use write::{write_bytes, write_file};
+pub use read::{read_bytes, read_file, read_file_metadata, read_grid, read_grid_bytes};
+pub use write::{write_bytes, write_bytes_with_metadata, write_file, write_file_with_metadata};
 
 use glam::{DMat4, DVec3};
 

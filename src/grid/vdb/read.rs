@@ -35,6 +35,13 @@ pub fn read_bytes(bytes: &[u8]) -> Outcome<Vec<VdbGrid>> {
     read_archive(bytes, None)
 }
 
+/// The file-level metadata of the bytes of a VDB file (its grids are not read).
+pub fn read_file_metadata(bytes: &[u8]) -> Outcome<Vec<(String, VdbMeta)>> {
+    let mut cur = Cursor::new(bytes);
+    read_header(&mut cur)?;
+    read_metadata(&mut cur)
+}
+
 /// The first grid called `name` in a VDB file; other grids are skipped unread.
 pub fn read_grid(path: &Path, name: &str) -> Outcome<VdbGrid> {
     let bytes = load(path)?;
@@ -58,8 +65,8 @@ fn load(path: &Path) -> Outcome<Vec<u8>> {
     };
     // A VDB file is read whole, so it may be no larger than the memory budget.
     let limit = crate::grid::domain::memory_limit();
-    crate::input::read_whole(&crate::output::source(path), limit, "a VDB file").map_err(|e| {
-        cannot(&e).with_help("check the path; it is relative to the directory felt runs in")
+    crate::input::read_whole(path, limit, "a VDB file").map_err(|e| {
+        cannot(&e).with_help("check the path; a relative one starts at the script's folder")
     })
 }
 

@@ -22,7 +22,18 @@ const LIBRARY_VERSION: (u32, u32) = (10, 0);
 
 /// Writes `grids` to `path`, replacing any file there only once the new one is complete.
 pub fn write_file(path: &Path, grids: &[VdbGrid], compression: Compression) -> Outcome<()> {
-    let bytes = write_bytes(grids, compression)?;
+    write_file_with_metadata(path, grids, compression, &[])
+}
+
+/// `write_file` with file-level metadata (what `vdb_print` shows above the grids and
+/// pyopenvdb's `readAll` returns beside them).
+pub fn write_file_with_metadata(
+    path: &Path,
+    grids: &[VdbGrid],
+    compression: Compression,
+    metadata: &[(String, VdbMeta)],
+) -> Outcome<()> {
+    let bytes = write_bytes_with_metadata(grids, compression, metadata)?;
     crate::output::write_atomically(path, |file| {
         file.write_all(&bytes).map_err(|e| e.to_string())
     })
@@ -31,6 +42,15 @@ pub fn write_file(path: &Path, grids: &[VdbGrid], compression: Compression) -> O
 
 /// The bytes of a VDB file holding `grids`.
 pub fn write_bytes(grids: &[VdbGrid], compression: Compression) -> Outcome<Vec<u8>> {
+    write_bytes_with_metadata(grids, compression, &[])
+}
+
+/// The bytes of a VDB file holding `grids` and the file-level `metadata`.
+pub fn write_bytes_with_metadata(
+    grids: &[VdbGrid],
+    compression: Compression,
+    metadata: &[(String, VdbMeta)],
+) -> Outcome<Vec<u8>> {
     let flags = COMPRESS_ACTIVE_MASK
         | match compression {
             Compression::None => 0,
@@ -44,7 +64,8 @@ pub fn write_bytes(grids: &[VdbGrid], compression: Compression) -> Outcome<Vec<u
     out.push(1); // the file records where each grid starts and ends
     let uuid_at = out.len();
     out.extend_from_slice(&[b'0'; 36]);
-    put_u32(&mut out, 0); // no file-level metadata
+    let file_entries: BTreeMap<String, VdbMeta> = metadata.iter().cloned().collect();
+    put_entries(&mut out, &file_entries);
     let count =
         i32::try_from(grids.len()).map_err(|_| Failure::new("too many grids for one VDB file"))?;
     out.extend_from_slice(&count.to_le_bytes());
@@ -153,8 +174,13 @@ fn write_metadata(out: &mut Vec<u8>, grid: &VdbGrid, flags: u32) {
         VdbMeta::String(compression.into()),
     );
 
+    put_entries(out, &entries);
+}
+
+/// Metadata entries as OpenVDB's `MetaMap` stores them: a count, then name, type and value.
+fn put_entries(out: &mut Vec<u8>, entries: &BTreeMap<String, VdbMeta>) {
     put_u32(out, entries.len() as u32);
-    for (key, value) in &entries {
+    for (key, value) in entries {
         put_string(out, key);
         let (type_name, bytes): (&str, Vec<u8>) = match value {
             VdbMeta::String(s) => ("string", s.as_bytes().to_vec()),

@@ -13,7 +13,6 @@ use crate::grid::cache::Cache;
 use crate::interp::registry::Registry;
 use crate::interp::value::Value;
 use crate::sample::{FieldSampler, GridDerivative, GridSource, Interp};
-use std::path::Path;
 use std::rc::Rc;
 use std::sync::Arc;
 
@@ -73,21 +72,20 @@ pub fn register(r: &mut Registry) {
         "geometry",
         &["loadshape(string path) -> shape"],
         "reads a triangle mesh from an OBJ or PLY file",
-        |_, a| {
-            Ok(Value::Shape(Rc::new(geometry::load_mesh(Path::new(
-                a.string(0)?,
-            ))?)))
+        |interp, a| {
+            let path = interp.files.reading(a.string(0)?)?;
+            Ok(Value::Shape(Rc::new(geometry::load_mesh(&path)?)))
         },
     );
     r.add(
         "geometry",
         &["saveshape(shape s, string path) -> void"],
         "writes a mesh as OBJ (text) or PLY (binary), by the path's extension",
-        |_, a| {
+        |interp, a| {
             let Value::Shape(mesh) = a.get(0)? else {
                 return Err(Failure::new("expected a shape"));
             };
-            geometry::save_mesh(mesh, Path::new(a.string(1)?))?;
+            geometry::save_mesh(mesh, &interp.files.writing(a.string(1)?)?)?;
             Ok(Value::Void)
         },
     );

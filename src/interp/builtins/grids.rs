@@ -14,6 +14,7 @@ use crate::field::{CompiledField, Field};
 use crate::grid::cache::Cache;
 use crate::grid::cache::outside::{Outside, OutsideRead};
 use crate::grid::domain::Domain;
+use crate::grid::vdb::VdbMeta;
 use crate::grid::vdb_cache;
 use crate::interp::Interpreter;
 use crate::interp::registry::{Args, Registry};
@@ -21,7 +22,6 @@ use crate::interp::value::{CacheVar, Value};
 use crate::sample::{GridDerivative, GridSource, Interp};
 use glam::{DMat3, DVec3};
 use std::cell::RefCell;
-use std::path::Path;
 use std::rc::Rc;
 use std::sync::Arc;
 
@@ -34,7 +34,7 @@ pub fn register(r: &mut Registry) {
             "domain(vector origin, vector lengths, vector orientation, float cellxy, float cellz) -> domain",
         ],
         "an oriented box (corner, edge lengths, rotation vector), with cubic or (xy, z) cells",
-        |_, a| {
+        |interp, a| {
             let (origin, lengths, orientation) = (
                 a.get(0)?.as_vector()?,
                 a.get(1)?.as_vector()?,
@@ -48,6 +48,9 @@ pub fn register(r: &mut Registry) {
                 }
                 _ => Domain::with_cells(origin, lengths, orientation, a.float(3)?, a.float(4)?)?,
             };
+            if let Some((axis, asked, made)) = domain.length_change(lengths) {
+                warn_length_change(interp, &domain, axis, asked, made);
+            }
             Ok(Value::Domain(Rc::new(domain)))
         },
     );
@@ -140,52 +143,182 @@ pub fn register(r: &mut Registry) {
     r.add(
         "caches",
         &[
-            "cachesave(scalarcache c, string path) -> void",
-            "cachesave(vectorcache c, string path) -> void",
+            "cachesave(scalarcache c, string path, string class?, bool append?) -> void",
+            "cachesave(vectorcache c, string path, string vector_type?, bool append?) -> void",
         ],
-        "writes c to an OpenVDB file (grid named \"density\" or \"vel\", or the name after '#': \"a.vdb#temperature\")",
-        |interp, a| {
-            let cache = written(&a)?;
-            let (path, name) = split_grid_name(a.string(1)?)?;
-            let name = name.unwrap_or(if cache.width() == 1 { "density" } else { "vel" });
-            vdb_cache::save(&cache, Path::new(path), name)?;
-            report_now(interp, &cache);
-            Ok(Value::Void)
-        },
+        "writes c as a grid of an OpenVDB file (named \"density\" or \"vel\", or the name after \
+         '#': \"a.vdb#temperature\"); saving several grids to one file in a run keeps them all, \
+         append = true also keeps the grids the file held before the run; class \"fog volume\" \
+         (default), \"level set\" or \"unknown\"; vector_type as OpenVDB names it (default \
+         \"contravariant relative\")",
+        cachesave,
     );
     r.add(
         "caches",
         &[
-            "cacheload(string path, string grid) -> scalarfield",
+            "cacheload(string path, string grid, string interp?, string derivative?, string outside?) -> scalarfield",
         ],
-        "reads a float grid of an OpenVDB file as a field (linear interpolation, background outside)",
+        "reads a float grid of an OpenVDB file as a field, read as cacheread reads a cache \
+         (interp, derivative, outside)",
         |interp, a| {
+            let read = ReadOptions::of(&a)?;
             let cache = load_checked(interp, &a, 1)?;
-            let grid: Arc<dyn GridSource> = Arc::new(cache);
-            Ok(Value::Field(Field::from_grid(grid, Interp::Linear, GridDerivative::Interpolant)?))
+            read.field(Arc::new(cache))
         },
     );
     r.add(
         "caches",
-        &["cacheloadvector(string path, string grid) -> vectorfield"],
-        "reads a vector grid of an OpenVDB file as a field",
+        &["cacheloadvector(string path, string grid, string interp?, string derivative?, string outside?) -> vectorfield"],
+        "reads a vector grid of an OpenVDB file as a field, read as cacheread reads a cache",
         |interp, a| {
+            let read = ReadOptions::of(&a)?;
             let cache = load_checked(interp, &a, 3)?;
-            let grid: Arc<dyn GridSource> = Arc::new(cache);
-            Ok(Value::Field(Field::from_grid(
-                grid,
-                Interp::Linear,
-                GridDerivative::Interpolant,
-            )?))
+            read.field(Arc::new(cache))
         },
     );
 }
 
+/// Warns that a domain's box grew or shrank to a whole number of cells.
+fn warn_length_change(
+    interp: &mut Interpreter,
+    domain: &Domain,
+    axis: usize,
+    asked: f64,
+    made: f64,
+) {
+    let resolution = domain.resolution.unwrap_or([1, 1, 1]);
+    interp.warnings.push(
+        Diagnostic::warning(
+            Stage::Runtime,
+            interp.call_span,
+            format!(
+                "the domain's {} length {asked} is not a whole number of cells of {}: it is {made} \
+                 ({} cells), the far face moved by {:.3} of a cell",
+                ["x", "y", "z"][axis],
+                domain.cell[axis],
+                resolution[axis],
+                (made - asked).abs() / domain.cell[axis],
+            ),
+        )
+        .with_help("cells are cubic: make the length a multiple of the cell size"),
+    );
+}
+
+fn cachesave(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
+    let cache = written(&a)?;
+    let (file, name) = split_grid_name(a.string("path")?)?;
+    let vector = cache.width() == 3;
+    // Each form has its own keyword: class for scalars, vector_type for vectors.
+    let (class, vector_type) = if vector {
+        let vector_type = match a.opt("vector_type") {
+            Some(v) => v.as_str()?.to_string(),
+            None => vdb_cache::DEFAULT_VECTOR_TYPE.to_string(),
+        };
+        (vdb_cache::GridClass::Unknown, vector_type)
+    } else {
+        let class = match a.opt("class") {
+            Some(v) => vdb_cache::GridClass::parse(v.as_str()?)?,
+            None => vdb_cache::GridClass::FogVolume,
+        };
+        (class, String::new())
+    };
+    let options = vdb_cache::GridOptions {
+        name: name
+            .unwrap_or(if vector { "vel" } else { "density" })
+            .to_string(),
+        class,
+        vector_type,
+        creator: crate::provenance::creator(),
+    };
+    let path = interp.files.writing(file)?;
+    // Before the fill, which can take long: a file in the way should not cost it.
+    crate::output::check_writable(&path)
+        .map_err(|e| Failure::new(format!("cannot write VDB file '{}': {e}", path.display())))?;
+    let append = matches!(a.opt("append"), Some(Value::Bool(true)));
+    let grid = vdb_cache::grid_of(&cache, &options)?;
+    let mut metadata: Vec<(String, VdbMeta)> = crate::provenance::of(interp)
+        .into_iter()
+        .map(|(k, v)| (k, VdbMeta::String(v)))
+        .collect();
+    metadata.push(("creator".into(), VdbMeta::String(options.creator.clone())));
+    let keep = append || interp.files.vdbs_written.contains(&path);
+    vdb_cache::save(&path, grid, keep, &metadata)?;
+    interp.files.vdbs_written.insert(path);
+    report_now(interp, &cache);
+    Ok(Value::Void)
+}
+
+/// How a cache or a loaded grid is read as a field: `cacheread`'s and `cacheload`'s options.
+struct ReadOptions {
+    interp: Interp,
+    derivative: GridDerivative,
+    outside: Option<Outside>,
+}
+
+impl ReadOptions {
+    fn of(a: &Args) -> Outcome<ReadOptions> {
+        let interp = match a.opt("interp") {
+            None => Interp::Linear,
+            Some(v) => match v.as_str()? {
+                "linear" => Interp::Linear,
+                "cubic" => Interp::Cubic,
+                other => {
+                    return Err(Failure::new(format!(
+                        "interp must be \"linear\" or \"cubic\", found \"{other}\""
+                    )));
+                }
+            },
+        };
+        let derivative = match a.opt("derivative") {
+            None => GridDerivative::Interpolant,
+            Some(v) => match v.as_str()? {
+                "interpolant" => GridDerivative::Interpolant,
+                "central" => GridDerivative::Central,
+                other => {
+                    return Err(Failure::new(format!(
+                        "derivative must be \"interpolant\" or \"central\", found \"{other}\""
+                    )));
+                }
+            },
+        };
+        let outside = match a.opt("outside") {
+            None => None,
+            Some(v) => match v.as_str()? {
+                "background" => None,
+                "extrapolate" => Some(Outside::Extrapolate),
+                "hold" => Some(Outside::Hold),
+                other => {
+                    return Err(Failure::new(format!(
+                        "outside must be \"background\", \"extrapolate\" or \"hold\", found \"{other}\""
+                    )));
+                }
+            },
+        };
+        Ok(ReadOptions {
+            interp,
+            derivative,
+            outside,
+        })
+    }
+
+    fn field(&self, cache: Arc<Cache>) -> Outcome<Value> {
+        let grid: Arc<dyn GridSource> = match self.outside {
+            Some(how) => Arc::new(OutsideRead::new(cache, how)),
+            None => cache,
+        };
+        Ok(Value::Field(Field::from_grid(
+            grid,
+            self.interp,
+            self.derivative,
+        )?))
+    }
+}
+
 /// `cacheload`'s grid as a cache, with a warning when it holds NaN or infinite values.
 fn load_checked(interp: &mut Interpreter, a: &Args, width: usize) -> Outcome<Cache> {
-    let (path, name) = (Path::new(a.string(0)?), a.string(1)?);
-    let (cache, check) = vdb_cache::load(path, name, width)?;
-    if let Some(message) = check.warning(path, name) {
+    let (path, name) = (interp.files.reading(a.string(0)?)?, a.string(1)?);
+    let (cache, check) = vdb_cache::load(&path, name, width)?;
+    if let Some(message) = check.warning(&path, name) {
         interp.warnings.push(
             Diagnostic::warning(Stage::Runtime, interp.call_span, message).with_help(
                 "reading those voxels gives NaN; a render treats them as empty, other uses \
@@ -263,52 +396,10 @@ fn written(a: &Args) -> Outcome<Arc<Cache>> {
 
 fn cacheread(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
     let var = cache_var(&a)?;
-    let interp_kind = match a.opt(1) {
-        None => Interp::Linear,
-        Some(v) => match v.as_str()? {
-            "linear" => Interp::Linear,
-            "cubic" => Interp::Cubic,
-            other => {
-                return Err(Failure::new(format!(
-                    "interp must be \"linear\" or \"cubic\", found \"{other}\""
-                )));
-            }
-        },
-    };
-    let derivative = match a.opt(2) {
-        None => GridDerivative::Interpolant,
-        Some(v) => match v.as_str()? {
-            "interpolant" => GridDerivative::Interpolant,
-            "central" => GridDerivative::Central,
-            other => {
-                return Err(Failure::new(format!(
-                    "derivative must be \"interpolant\" or \"central\", found \"{other}\""
-                )));
-            }
-        },
-    };
-    let outside = match a.opt(3) {
-        None => None,
-        Some(v) => match v.as_str()? {
-            "background" => None,
-            "extrapolate" => Some(Outside::Extrapolate),
-            "hold" => Some(Outside::Hold),
-            other => {
-                return Err(Failure::new(format!(
-                    "outside must be \"background\", \"extrapolate\" or \"hold\", found \"{other}\""
-                )));
-            }
-        },
-    };
+    let read = ReadOptions::of(&a)?;
     let state = var.state.borrow().clone();
-    let field = match state {
-        Some(cache) => {
-            let grid: Arc<dyn GridSource> = match outside {
-                Some(how) => Arc::new(OutsideRead::new(cache, how)),
-                None => cache,
-            };
-            Field::from_grid(grid, interp_kind, derivative)?
-        }
+    match state {
+        Some(cache) => read.field(cache),
         None => {
             interp.warnings.push(
                 Diagnostic::warning(
@@ -318,10 +409,9 @@ fn cacheread(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
                 )
                 .with_help("call cachewrite(c, field) before cacheread(c)"),
             );
-            constant_of(var.shape, &var.background)
+            Ok(Value::Field(constant_of(var.shape, &var.background)))
         }
-    };
-    Ok(Value::Field(field))
+    }
 }
 
 fn constant_of(shape: Shape, background: &[f64]) -> Field {

@@ -18,7 +18,6 @@ use crate::render::transmittance::TransmissivityMethod;
 use crate::render::{self, Camera, Light, Phase, RenderSettings, Scene};
 use crate::sample::{GridDerivative, GridSource, Interp};
 use glam::DVec3;
-use std::path::Path;
 use std::rc::Rc;
 use std::sync::Arc;
 
@@ -32,7 +31,7 @@ macro_rules! render_form {
             " kappa?, float step?, int width?, int height?, int spp?, int seed?, ",
             "domain bounds?, float threshold?, float phase?, vector phase2?, scalarfield holdout?, ",
             "vector ambient?, int multiscatter?, bool adaptive?, string[] aovs?, string shadows?, ",
-            "float powder?, float shadowcell?, float albedo?, string tonemap?, float brightness?, float gamma?) -> void"
+            "float powder?, float shadowcell?, float albedo?, string tonemap?, float brightness?, float gamma?, bool exr_half?) -> void"
         )
     };
 }
@@ -84,23 +83,23 @@ pub fn register(r: &mut Registry) {
     );
     r.add(
         "rendering",
-        &["distantlight(vector direction, vector color?) -> light"],
-        "parallel light travelling along direction ((0, -1, 0) is the sun overhead); color defaults to white",
+        &["distantlight(vector direction, vector color?, string name?) -> light"],
+        "parallel light travelling along direction ((0, -1, 0) is the sun overhead); color \
+         defaults to white; name is what its AOV channels are called (default light0, light1, ... \
+         by its place in the render's lights)",
         |_, a| {
             let color = opt_vector(&a, 1)?.unwrap_or(DVec3::ONE);
-            Ok(Value::Light(Rc::new(Light::distant(a.get(0)?.as_vector()?, color)?)))
+            named(Light::distant(a.get(0)?.as_vector()?, color)?, &a)
         },
     );
     r.add(
         "rendering",
-        &["pointlight(vector position, vector color?) -> light"],
-        "light from a point, falling off as 1/r^2 (color is the strength at distance 1)",
+        &["pointlight(vector position, vector color?, string name?) -> light"],
+        "light from a point, falling off as 1/r^2 (color is the strength at distance 1); name \
+         as for distantlight",
         |_, a| {
             let color = opt_vector(&a, 1)?.unwrap_or(DVec3::ONE);
-            Ok(Value::Light(Rc::new(Light::point(
-                a.get(0)?.as_vector()?,
-                color,
-            )?)))
+            named(Light::point(a.get(0)?.as_vector()?, color)?, &a)
         },
     );
     r.add(
@@ -150,6 +149,15 @@ pub fn register(r: &mut Registry) {
     );
 }
 
+/// The light with the `name` argument, when one was given.
+fn named(light: Light, a: &Args) -> Outcome<Value> {
+    let light = match a.opt("name") {
+        Some(name) => light.named(name.as_str()?)?,
+        None => light,
+    };
+    Ok(Value::Light(Rc::new(light)))
+}
+
 fn opt_float(a: &Args, i: usize) -> Outcome<Option<f64>> {
     a.opt(i).map(|v| v.as_float()).transpose()
 }
@@ -178,7 +186,7 @@ fn count(a: &Args, i: usize, what: &str, default: usize) -> Outcome<usize> {
 }
 
 fn run_render(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
-    let path = a.string(0)?.to_string();
+    let path = interp.files.writing(a.string(0)?)?;
     let density = CompiledField::prepared(&a.get(1)?.as_field()?)?;
     let (color, emission, holdout) = (
         opt_field(&a, COLOR)?,
@@ -334,15 +342,37 @@ fn run_render(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
     };
     let label = format!("render at {}", interp.location(interp.call_span));
     let started = std::time::Instant::now();
-    crate::output::check_writable(Path::new(&path)).map_err(|e| {
-        Failure::new(format!("cannot write image '{path}': {e}"))
-            .with_help("create the folder first, or write somewhere else")
+    crate::output::check_writable(&path).map_err(|e| {
+        Failure::new(format!("cannot write image '{}': {e}", path.display()))
+            .with_help("write somewhere else, or move what is in the way")
     })?;
+    let half = matches!(a.opt("exr_half"), Some(Value::Bool(true)));
+    let header = render::exr_header::options(
+        &scene.camera,
+        settings.width,
+        settings.height,
+        half,
+        crate::provenance::of(interp),
+    );
     let (mut image, render_stats) = render::render_with_stats(&scene, &settings)?;
     if let Some(map) = tonemap {
         map.apply(&mut image);
     }
-    render::write_image(Path::new(&path), &image)?;
+    let clamped = render::write_image_with(&path, &image, &header)?;
+    if clamped > 0 {
+        interp.warnings.push(
+            Diagnostic::warning(
+                Stage::Runtime,
+                interp.call_span,
+                format!(
+                    "{} sample{} above 65504, the largest half float, written as 65504",
+                    crate::diagnostic::grouped(clamped),
+                    if clamped == 1 { "" } else { "s" }
+                ),
+            )
+            .with_help("leave out exr_half = true to keep full floats"),
+        );
+    }
     for warning in render_stats.warnings() {
         interp.warnings.push(
             Diagnostic::warning(Stage::Runtime, interp.call_span, warning.message)

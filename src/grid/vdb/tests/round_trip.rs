@@ -394,11 +394,15 @@ fn files_are_replaced_whole() {
         1,
         "no temporary left behind"
     );
+    // Missing folders are made; a file where a folder should be is an error.
     let missing = directory.path().join("no/such/dir/out.vdb");
+    write_file(&missing, std::slice::from_ref(&grid), Compression::Zip).unwrap();
+    assert!(missing.exists());
+    let blocked = directory.path().join("out.vdb/inside.vdb");
     assert!(
-        write_file(&missing, &[grid], Compression::Zip)
+        write_file(&blocked, &[grid], Compression::Zip)
             .unwrap_err()
             .message
-            .contains("cannot write")
+            .contains("is not a folder")
     );
 }
