@@ -12,13 +12,24 @@
 //! a farm's frames) without overwriting itself. Absolute paths are written as given. A relative
 //! path the run wrote under DIR is also read back from there, so a script that saves a cache
 //! and loads it again sees its own file.
+//!
+//! Frame patterns (`####`, `%04d`, `$F4`; see `frames`) in any path felt opens are filled with
+//! the `frame` param's value. One frame of `felt run --frames` must name its frame in every
+//! output path, or each frame would overwrite the last one's file.
 
 use std::fs::File;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Mutex, OnceLock};
 
 /// The folder relative outputs go to, when `--output-dir` set one.
 static DIRECTORY: OnceLock<PathBuf> = OnceLock::new();
+
+/// The `frame` param's value, once the script has declared it.
+static FRAME: Mutex<Option<i64>> = Mutex::new(None);
+
+/// Whether this run is one frame of `--frames`.
+static IN_RANGE: AtomicBool = AtomicBool::new(false);
 
 /// Temporary files being written now, so an interrupted run can remove them.
 static IN_PROGRESS: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
@@ -53,11 +64,60 @@ pub fn set_directory(directory: &Path) -> Result<(), String> {
         .map_err(|_| String::from("the output folder is already set"))
 }
 
+/// Records the `frame` param's value, which fills frame patterns in paths from now on.
+pub fn set_frame(frame: i64) {
+    *FRAME.lock().unwrap_or_else(|e| e.into_inner()) = Some(frame);
+}
+
+/// Marks this run as one frame of `--frames`: every output path must then name its frame.
+pub fn set_frame_range() {
+    IN_RANGE.store(true, Ordering::Relaxed);
+}
+
+/// The frame this run is on, if the script has one.
+pub fn current_frame() -> Option<i64> {
+    frame()
+}
+
+fn frame() -> Option<i64> {
+    *FRAME.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// `path` with its frame patterns filled, when the script has a frame.
+fn framed(path: &Path) -> PathBuf {
+    match (frame(), path.to_str()) {
+        (Some(frame), Some(text)) => crate::frames::fill(text, frame)
+            .map(PathBuf::from)
+            .unwrap_or_else(|| path.to_path_buf()),
+        _ => path.to_path_buf(),
+    }
+}
+
+/// Whether an output may be written at `path` as far as frames go: a pattern needs a frame to
+/// fill it, and one frame of a range needs a pattern.
+fn check_frame(path: &Path) -> Result<(), String> {
+    let text = path.to_string_lossy();
+    let pattern = crate::frames::has_pattern(&text);
+    if pattern && frame().is_none() {
+        return Err(String::from(
+            "its name has a frame pattern but the script declares no `param int frame`",
+        ));
+    }
+    if !pattern && IN_RANGE.load(Ordering::Relaxed) {
+        return Err(String::from(
+            "every frame of --frames would write this same file; put the frame in its name \
+             (`name.####.exr`, `name.%04d.exr` or `name.$F4.exr`)",
+        ));
+    }
+    Ok(())
+}
+
 /// Where a write of `path`, as the script named it, lands.
 pub fn target(path: &Path) -> PathBuf {
+    let path = framed(path);
     match DIRECTORY.get() {
         Some(directory) if path.is_relative() => directory.join(path),
-        _ => path.to_path_buf(),
+        _ => path,
     }
 }
 
@@ -65,10 +125,11 @@ pub fn target(path: &Path) -> PathBuf {
 /// is one, else `path` as given.
 pub fn source(path: &Path) -> PathBuf {
     let written = target(path);
-    if written != path && written.exists() {
+    let named = framed(path);
+    if written != named && written.exists() {
         written
     } else {
-        path.to_path_buf()
+        named
     }
 }
 
@@ -76,6 +137,8 @@ pub fn source(path: &Path) -> PathBuf {
 /// exists (or will be made under the output folder). A render can take minutes; a typo in
 /// its folder should not cost them.
 pub fn check_writable(path: &Path) -> Result<(), String> {
+    check_frame(path)?;
+    let path = &framed(path);
     if DIRECTORY.get().is_some() && path.is_relative() {
         return Ok(());
     }
@@ -115,6 +178,7 @@ pub fn write_atomically(
     path: &Path,
     write: impl FnOnce(&mut File) -> Result<(), String>,
 ) -> Result<(), String> {
+    check_frame(path)?;
     let landing = target(path);
     if DIRECTORY.get().is_some()
         && path.is_relative()

@@ -93,8 +93,16 @@ pub fn write_image(path: &Path, image: &Image) -> Outcome<()> {
         .extension()
         .and_then(|e| e.to_str())
         .map(|e| e.to_ascii_lowercase());
+    if let Some(band) = super::band::active()
+        && matches!(extension.as_deref(), Some("exr" | "png"))
+    {
+        let (cropped, placement) = super::band::crop(image, band)?;
+        return atomically(&band.path(path), |file| {
+            write_exr(file, &cropped, Some(&placement))
+        });
+    }
     match extension.as_deref() {
-        Some("exr") => atomically(path, |file| write_exr(file, image)),
+        Some("exr") => atomically(path, |file| write_exr(file, image, None)),
         Some("png") => atomically(path, |file| write_png(file, image)),
         _ => Err(Failure::new(format!(
             "cannot tell the image format of '{}'",
@@ -113,7 +121,12 @@ fn atomically(
         .map_err(|e| Failure::new(format!("cannot write image '{}': {e}", path.display())))
 }
 
-fn write_exr(file: &mut std::fs::File, image: &Image) -> Result<(), String> {
+/// Writes `image` as OpenEXR; a band (`placement`) is written where it sits in its image.
+fn write_exr(
+    file: &mut std::fs::File,
+    image: &Image,
+    placement: Option<&super::band::Placement>,
+) -> Result<(), String> {
     use exr::prelude::{
         AnyChannel, AnyChannels, Encoding, FlatSamples, Image as ExrImage, Layer, LayerAttributes,
         WritableImage,
@@ -137,7 +150,11 @@ fn write_exr(file: &mut std::fs::File, image: &Image) -> Result<(), String> {
         Encoding::SMALL_LOSSLESS,
         AnyChannels::sort(channels.into()),
     );
-    ExrImage::from_layer(layer)
+    let mut encoded = ExrImage::from_layer(layer);
+    if let Some(placement) = placement {
+        placement.apply(&mut encoded);
+    }
+    encoded
         .write()
         .to_buffered(BufWriter::new(file))
         .map_err(|e| e.to_string())
