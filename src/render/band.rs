@@ -169,7 +169,7 @@ mod tests {
 
     #[test]
     fn bands_tile_the_image_on_row_group_edges() {
-        for height in [16, 17, 50, 100, 1080] {
+        for height in [16usize, 17, 50, 100, 1080] {
             for count in 1..=height.div_ceil(ROW_GROUP).min(9) {
                 let mut next = 0;
                 for index in 0..count {
