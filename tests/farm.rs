@@ -239,7 +239,13 @@ fn frames_need_a_frame_param_and_a_frame_in_every_output_name() {
         &dir_arg(dir.path()),
     ]);
     assert_eq!(ran.status.code(), Some(1));
-    assert!(text(&ran.stderr).contains("declares no `param int frame`"));
+    let stderr = text(&ran.stderr);
+    let flat = stderr
+        .replace('│', " ")
+        .split_whitespace()
+        .collect::<Vec<_>>()
+        .join(" ");
+    assert!(flat.contains("declares no `param int frame`"), "{stderr}");
 }
 
 #[test]
