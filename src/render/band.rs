@@ -175,7 +175,7 @@ mod tests {
                 for index in 0..count {
                     let rows = Band { index, count }.rows(height).unwrap();
                     assert_eq!(rows.start, next, "height {height}, band {index}/{count}");
-                    assert!(!rows.is_empty() && rows.start % ROW_GROUP == 0);
+                    assert!(!rows.is_empty() && rows.start.is_multiple_of(ROW_GROUP));
                     next = rows.end;
                 }
                 assert_eq!(next, height);

@@ -100,7 +100,7 @@ fn interval(setting: Option<&str>) -> Duration {
 
 /// One plain progress line: `felt: frame 12: rendering 45% (120 of 266 tiles), 0:01:05 elapsed`.
 pub fn line(frame: Option<i64>, done: u64, total: u64, elapsed: Duration) -> String {
-    let percent = if total == 0 { 100 } else { done * 100 / total };
+    let percent = (done * 100).checked_div(total).unwrap_or(100);
     let seconds = elapsed.as_secs();
     let frame = frame.map_or(String::new(), |f| format!(" frame {f}:"));
     format!(
