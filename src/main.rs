@@ -34,6 +34,54 @@ struct Cli {
     command: Command,
 }
 
+#[derive(clap::Args)]
+struct FarmArgs {
+    /// The script each task runs.
+    file: PathBuf,
+    /// The frames, one task each: `1-240`, `1-240:2`, `12` or a comma list.
+    #[arg(long, value_name = "RANGE")]
+    frames: felt::frames::FrameRange,
+    /// Split each frame into N bands, one task each, merged by a dependent step.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..=4096))]
+    tiles: Option<u16>,
+    /// Override a `param` declaration in every task: `--set name=value` (repeatable).
+    #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_assignment)]
+    set: Vec<(String, String)>,
+    /// An image the merge step assembles, as the script names it (repeatable; default: the
+    /// paths of the script's render calls).
+    #[arg(long = "image", value_name = "PATH")]
+    images: Vec<String>,
+    /// The file to write (default: SCRIPT.openjd.yaml or SCRIPT.slurm.sh in the current
+    /// folder).
+    #[arg(long, short, value_name = "FILE")]
+    out: Option<PathBuf>,
+}
+
+#[derive(Subcommand)]
+enum FarmEngine {
+    /// An Open Job Description template (jobtemplate-2023-09): one task per frame, or per
+    /// frame and band with a dependent merge step. Check it with `openjd check FILE`.
+    Openjd(FarmArgs),
+    /// A Slurm array script (one task per frame, or per frame and band), and with bands a
+    /// merge array and a submit script that runs it after the render (afterok).
+    Slurm(FarmArgs),
+}
+
+const MERGE_ABOUT: &str = "\
+Assemble the bands `felt run --tile I/N` wrote into whole images.
+
+Band I of N of the image NAME.exr is NAME.tile-I-of-N.exr (of NAME.png, NAME.png.tile-I-of-N.exr). \
+merge reads all N, checks that each is present once, that they are of one image size and \
+hold the rows their index says, and writes NAME.exr (or the NAME.png preview) with the same \
+channels, samples and header as a render on one machine: bit for bit the same pixels. The \
+band files are left in place.
+
+Exit status: 0 when every image was assembled, 1 when a band is missing, duplicated or does \
+not fit (the others are still assembled), 2 for bad usage.
+
+Example:
+  felt merge renders/cloud.####.exr --frames 1-240 --tiles 4";
+
 #[derive(Subcommand)]
 enum Command {
     /// Run a script.
@@ -61,6 +109,38 @@ enum Command {
         /// the script's folder; inputs are still read from the script's folder.
         #[arg(long, value_name = "DIR")]
         output_dir: Option<PathBuf>,
+        /// Run the script once per frame with its `param int frame` set: `12`, `1-240`,
+        /// `1-240:2` (every second frame) or a comma list of those. Output paths must name
+        /// their frame (`out.####.exr`, `out.%04d.exr`, `out.$F4.exr`). Each frame of a
+        /// range runs in its own process; a failed frame is reported and the rest still run.
+        #[arg(long, value_name = "RANGE")]
+        frames: Option<felt::frames::FrameRange>,
+        /// Render only band I of N (from 0, counted from the top) of every image, into
+        /// NAME.tile-I-of-N.exr, for `felt merge` to assemble.
+        #[arg(long, value_name = "I/N")]
+        tile: Option<felt::render::band::Band>,
+    },
+    /// Assemble the bands `felt run --tile I/N` wrote into whole images.
+    #[command(long_about = MERGE_ABOUT)]
+    Merge {
+        /// The images to assemble, as the script names them (a frame pattern with --frames).
+        #[arg(required = true)]
+        images: Vec<String>,
+        /// The frames to assemble, as for `felt run --frames`.
+        #[arg(long, value_name = "RANGE")]
+        frames: Option<felt::frames::FrameRange>,
+        /// How many bands each image was split into (default: the split found on disk).
+        #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..=4096))]
+        tiles: Option<u16>,
+        /// Where the bands and images are, for images named by relative paths (as `felt run
+        /// --output-dir`).
+        #[arg(long, value_name = "DIR")]
+        output_dir: Option<PathBuf>,
+    },
+    /// Write a job for a render farm: an Open Job Description template or Slurm array scripts.
+    Farm {
+        #[command(subcommand)]
+        engine: FarmEngine,
     },
     /// Measure what accuracy costs: run a script once per setting of its swept params and
     /// compare each run's outputs with a reference setting's.
@@ -224,7 +304,29 @@ fn run(cli: Cli) -> ExitCode {
             profile,
             memory_limit,
             output_dir,
+            frames,
+            tile,
         } => {
+            let mut set = set;
+            if let Some(range) = &frames {
+                if let Err(code) = frame_param(&file, &set) {
+                    return code;
+                }
+                if range.frames.len() > 1 {
+                    let args: Vec<std::ffi::OsString> = std::env::args_os().skip(1).collect();
+                    let _ = ctrlc::set_handler(|| {
+                        felt::sequence::interrupt_child();
+                        eprintln!("felt: interrupted");
+                        std::process::exit(130);
+                    });
+                    return ExitCode::from(felt::sequence::run(range, &args));
+                }
+                felt::output::set_frame_range();
+                set.push(("frame".to_string(), range.frames[0].to_string()));
+            }
+            if let Some(band) = tile {
+                felt::render::band::set(band);
+            }
             if let Err(code) = set_threads(threads) {
                 return code;
             }
@@ -330,6 +432,18 @@ fn run(cli: Cli) -> ExitCode {
             felt::repl::run()
         }
         Command::Doc { name } => felt::doc::print(name.as_deref()),
+        Command::Merge {
+            images,
+            frames,
+            tiles,
+            output_dir,
+        } => merge(
+            &images,
+            frames.as_ref(),
+            tiles.map(usize::from),
+            output_dir.as_deref(),
+        ),
+        Command::Farm { engine } => farm(engine, color),
     }
 }
 
@@ -343,4 +457,221 @@ fn report(
         eprint!("{}", diagnostic::render(diags, sources, color));
     }
     ExitCode::from(code)
+}
+
+/// Checks, before any frame runs, that the script declares `param int frame` and that
+/// `--set` leaves it to `--frames`.
+fn frame_param(file: &std::path::Path, set: &[(String, String)]) -> Result<(), ExitCode> {
+    if set.iter().any(|(name, _)| name == "frame") {
+        eprintln!("felt: --frames sets the param `frame`; do not also --set it");
+        return Err(ExitCode::from(2));
+    }
+    let Ok(mut session) = Session::new(Box::new(std::io::sink())) else {
+        return Ok(()); // the run itself reports a broken installation
+    };
+    let Ok(units) = session.load(file) else {
+        return Ok(()); // and an unreadable script
+    };
+    let declared = Session::params(&units)
+        .into_iter()
+        .find(|(name, _)| name == "frame")
+        .map(|(_, ty)| ty);
+    match declared {
+        Some(felt::check::types::Type::Int) => Ok(()),
+        Some(other) => {
+            eprintln!("felt: --frames: the script's param `frame` is a {other}, not an int");
+            eprintln!("  help: declare it as `param int frame = 1;`");
+            Err(ExitCode::from(2))
+        }
+        None => {
+            eprintln!(
+                "felt: --frames: {} declares no `param int frame` to set",
+                file.display()
+            );
+            eprintln!(
+                "  help: add `param int frame = 1;` at the top and use `frame` where the \
+                 script changes over time"
+            );
+            Err(ExitCode::from(2))
+        }
+    }
+}
+
+fn print_failure(failure: &felt::failure::Failure) {
+    eprintln!("felt: {}", failure.message);
+    if let Some(help) = &failure.help {
+        eprintln!("  help: {help}");
+    }
+}
+
+/// `felt merge`: every image of every frame; a failure is reported and the rest go on.
+fn merge(
+    images: &[String],
+    frames: Option<&felt::frames::FrameRange>,
+    tiles: Option<usize>,
+    output_dir: Option<&std::path::Path>,
+) -> ExitCode {
+    if let Some(dir) = output_dir
+        && let Err(e) = felt::output::set_directory(dir)
+    {
+        eprintln!("felt: --output-dir: {e}");
+        return ExitCode::from(2);
+    }
+    let mut paths = Vec::new();
+    for image in images {
+        match frames {
+            None => paths.push(image.clone()),
+            Some(range) => {
+                if !felt::frames::has_pattern(image) {
+                    eprintln!("felt: merge: '{image}' names no frame, but --frames was given");
+                    eprintln!("  help: write the frame as the script does: name.####.exr");
+                    return ExitCode::from(2);
+                }
+                paths.extend(
+                    range
+                        .frames
+                        .iter()
+                        .filter_map(|&f| felt::frames::fill(image, f)),
+                );
+            }
+        }
+    }
+    let mut failed = 0;
+    for path in &paths {
+        if let Err(failure) = felt::farm::merge::merge(std::path::Path::new(path), tiles) {
+            print_failure(&failure);
+            failed += 1;
+        }
+    }
+    if failed > 0 {
+        eprintln!("felt: {failed} of {} images not assembled", paths.len());
+    }
+    ExitCode::from(u8::from(failed > 0))
+}
+
+/// `felt farm openjd|slurm`: checks the script, then writes the job files.
+fn farm(engine: FarmEngine, color: bool) -> ExitCode {
+    let (openjd, args) = match engine {
+        FarmEngine::Openjd(args) => (true, args),
+        FarmEngine::Slurm(args) => (false, args),
+    };
+    if let Err(code) = frame_param(&args.file, &args.set) {
+        return code;
+    }
+    let mut session = match Session::new(Box::new(std::io::sink())) {
+        Ok(s) => s,
+        Err(failure) => return report(&failure.sources, &failure.diagnostics, color, 1),
+    };
+    let units = match session.load(&args.file) {
+        Ok(units) => units,
+        Err(diags) => return report(&session.sources.borrow(), &diags, color, 2),
+    };
+    let diags = session.check(&units);
+    if diags.iter().any(|d| d.is_error()) {
+        return report(&session.sources.borrow(), &diags, color, 1);
+    }
+    session.interp.overrides = args.set.iter().cloned().collect();
+    if let Err(d) = session.check_overrides(&units) {
+        return report(&session.sources.borrow(), &[d], color, 2);
+    }
+    let felt_binary = match std::env::current_exe() {
+        Ok(p) => p,
+        Err(e) => {
+            eprintln!("felt: cannot find the felt binary the tasks should run: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let programs: Vec<&felt::syntax::ast::Program> = units.iter().map(|u| &u.program).collect();
+    let job = match felt::farm::Job::new(
+        &felt_binary,
+        &args.file,
+        &programs,
+        args.frames,
+        args.tiles.map(usize::from),
+        args.set,
+        args.images,
+    ) {
+        Ok(job) => job,
+        Err(failure) => {
+            print_failure(&failure);
+            return ExitCode::from(2);
+        }
+    };
+    let stem = args
+        .file
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| String::from("felt"));
+    let written = if openjd {
+        let out = args
+            .out
+            .unwrap_or_else(|| PathBuf::from(format!("{stem}.openjd.yaml")));
+        write_job_file(&out, &felt::farm::openjd::template(&job), false).map(|()| vec![out])
+    } else {
+        let out = args
+            .out
+            .unwrap_or_else(|| PathBuf::from(format!("{stem}.slurm.sh")));
+        write_slurm(&out, &job)
+    };
+    match written {
+        Ok(files) => {
+            for file in files {
+                println!("wrote {}", file.display());
+            }
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("felt: {e}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+/// The Slurm scripts: OUT (the render array), and with bands OUT's `.merge.sh` and
+/// `.submit.sh` siblings; the submit script is written in every case.
+fn write_slurm(out: &std::path::Path, job: &felt::farm::Job) -> Result<Vec<PathBuf>, String> {
+    let scripts = felt::farm::slurm::scripts(job);
+    let name = out.to_string_lossy();
+    let stem = name.strip_suffix(".sh").unwrap_or(&name);
+    let absolute = |p: &std::path::Path| {
+        std::path::absolute(p)
+            .map(|p| p.display().to_string())
+            .map_err(|e| format!("cannot resolve '{}': {e}", p.display()))
+    };
+    let mut files = vec![out.to_path_buf()];
+    write_job_file(out, &scripts.render, true)?;
+    let merge = match &scripts.merge {
+        Some(text) => {
+            let path = PathBuf::from(format!("{stem}.merge.sh"));
+            write_job_file(&path, text, true)?;
+            files.push(path.clone());
+            Some(absolute(&path)?)
+        }
+        None => None,
+    };
+    let submit = PathBuf::from(format!("{stem}.submit.sh"));
+    let text = felt::farm::slurm::submit(&absolute(out)?, merge.as_deref());
+    write_job_file(&submit, &text, true)?;
+    files.push(submit);
+    Ok(files)
+}
+
+fn write_job_file(path: &std::path::Path, text: &str, executable: bool) -> Result<(), String> {
+    use std::io::Write;
+    felt::output::write_atomically(path, |file| {
+        file.write_all(text.as_bytes()).map_err(|e| e.to_string())?;
+        #[cfg(unix)]
+        if executable {
+            use std::os::unix::fs::PermissionsExt;
+            let mode = file
+                .metadata()
+                .map_err(|e| e.to_string())?
+                .permissions()
+                .mode();
+            file.set_permissions(std::fs::Permissions::from_mode(mode | (mode & 0o444) >> 2))
+                .map_err(|e| e.to_string())?;
+        }
+        Ok(())
+    })
+    .map_err(|e| format!("cannot write '{}': {e}", path.display()))
 }

@@ -14,13 +14,24 @@
 //! `--output-dir DIR` (`set_directory`) sends relative output paths under DIR, so one script
 //! can run many times side by side (a study's settings, a farm's frames) without overwriting
 //! itself; `paths` turns a script's names into paths, this module only writes them.
+//!
+//! Frame patterns (`####`, `%04d`, `$F4`; see `frames`) in any path felt opens are filled with
+//! the `frame` param's value. One frame of `felt run --frames` must name its frame in every
+//! output path, or each frame would overwrite the last one's file.
 
 use std::fs::File;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Mutex, OnceLock};
 
 /// The folder relative outputs go to, when `--output-dir` set one.
 static DIRECTORY: OnceLock<PathBuf> = OnceLock::new();
+
+/// The `frame` param's value, once the script has declared it.
+static FRAME: Mutex<Option<i64>> = Mutex::new(None);
+
+/// Whether this run is one frame of `felt run --frames`.
+static IN_RANGE: AtomicBool = AtomicBool::new(false);
 
 /// Temporary files being written now, so an interrupted run can remove them.
 static IN_PROGRESS: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
@@ -58,6 +69,57 @@ pub fn set_directory(directory: &Path) -> Result<(), String> {
 /// The folder `--output-dir` named, if it named one.
 pub fn directory() -> Option<&'static Path> {
     DIRECTORY.get().map(PathBuf::as_path)
+}
+
+/// Records the `frame` param's value, which fills frame patterns in paths from now on.
+pub fn set_frame(frame: i64) {
+    *FRAME.lock().unwrap_or_else(|e| e.into_inner()) = Some(frame);
+}
+
+/// Marks this run as one frame of `--frames`: every output path must then name its frame.
+pub fn set_frame_range() {
+    IN_RANGE.store(true, Ordering::Relaxed);
+}
+
+/// The frame this run is on, if the script has one.
+pub fn current_frame() -> Option<i64> {
+    *FRAME.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// `text` with its frame patterns filled, when the script has a frame.
+pub fn framed(text: &str) -> String {
+    match current_frame() {
+        Some(frame) => crate::frames::fill(text, frame).unwrap_or_else(|| text.to_string()),
+        None => text.to_string(),
+    }
+}
+
+/// Whether an output may be written at `text` as far as frames go: a pattern needs a frame to
+/// fill it, and one frame of a range needs a pattern.
+pub fn check_frame(text: &str) -> Result<(), String> {
+    let pattern = crate::frames::has_pattern(text);
+    if pattern && current_frame().is_none() {
+        return Err(String::from(
+            "its name has a frame pattern but the script declares no `param int frame`",
+        ));
+    }
+    if !pattern && IN_RANGE.load(Ordering::Relaxed) {
+        return Err(String::from(
+            "every frame of --frames would write this same file; put the frame in its name \
+             (`name.####.exr`, `name.%04d.exr` or `name.$F4.exr`)",
+        ));
+    }
+    Ok(())
+}
+
+/// Where a write of `path` lands when nothing resolved it against a script (bands, merges):
+/// frame patterns filled, and under the output folder when there is one.
+pub fn target(path: &Path) -> PathBuf {
+    let path = PathBuf::from(framed(&path.to_string_lossy()));
+    match DIRECTORY.get() {
+        Some(directory) if path.is_relative() => directory.join(path),
+        _ => path,
+    }
 }
 
 /// Checks, before the work that produces it, that a file can be written at `path`: the

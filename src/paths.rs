@@ -9,6 +9,8 @@
 //! back from it). At the REPL there is no script, and relative paths are relative to the
 //! current directory. Environment variables are expanded first: `$SHOT/cache/density.vdb`,
 //! `${SHOT}_v2.exr`; `$$` is a literal `$`; an unset variable is an error that names it.
+//! Frame patterns (`$F4`, `####`, `%04d`) are filled before variables are expanded, so `$F`
+//! and `$F4` are always frame numbers, never variables.
 
 use crate::failure::{Failure, Outcome};
 use std::collections::HashSet;
@@ -33,7 +35,7 @@ impl ScriptFiles {
 
     /// Where a file a script reads, named `text`, is found.
     pub fn reading(&self, text: &str) -> Outcome<PathBuf> {
-        let path = PathBuf::from(expand(text)?);
+        let path = PathBuf::from(expand(&crate::output::framed(text))?);
         if path.is_absolute() {
             return Ok(path);
         }
@@ -47,7 +49,9 @@ impl ScriptFiles {
 
     /// Where a file a script writes, named `text`, lands.
     pub fn writing(&self, text: &str) -> Outcome<PathBuf> {
-        let path = PathBuf::from(expand(text)?);
+        crate::output::check_frame(text)
+            .map_err(|e| Failure::new(format!("cannot write '{text}': {e}")))?;
+        let path = PathBuf::from(expand(&crate::output::framed(text))?);
         if path.is_absolute() {
             return Ok(path);
         }

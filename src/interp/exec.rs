@@ -58,6 +58,11 @@ impl Interpreter {
                     self.param_values
                         .push((name.name.clone(), value.to_string()));
                 }
+                if let (true, "frame", Value::Int(frame)) = (*is_param, name.name.as_str(), &value)
+                {
+                    // Frame patterns in paths (`####`) name this frame from now on.
+                    crate::output::set_frame(*frame);
+                }
                 self.declare(&name.name, declared, value);
                 Ok(Flow::Normal)
             }

@@ -122,8 +122,19 @@ pub fn write_image_with(path: &Path, image: &Image, options: &ExrOptions) -> Out
         .and_then(|e| e.to_str())
         .map(|e| e.to_ascii_lowercase());
     let mut clamped = 0;
+    if let Some(band) = super::band::active()
+        && matches!(extension.as_deref(), Some("exr" | "png"))
+    {
+        let (cropped, placement) = super::band::crop(image, band)?;
+        atomically(&band.path(path), |file| {
+            write_exr(file, &cropped, options, Some(&placement), &mut clamped)
+        })?;
+        return Ok(clamped);
+    }
     match extension.as_deref() {
-        Some("exr") => atomically(path, |file| write_exr(file, image, options, &mut clamped))?,
+        Some("exr") => {
+            atomically(path, |file| write_exr(file, image, options, None, &mut clamped))?
+        }
         Some("png") => atomically(path, |file| write_png(file, image))?,
         _ => Err(Failure::new(format!(
             "cannot tell the image format of '{}'",
@@ -143,10 +154,12 @@ fn atomically(
         .map_err(|e| Failure::new(format!("cannot write image '{}': {e}", path.display())))
 }
 
+/// Writes `image` as OpenEXR; a band (`placement`) is written where it sits in its image.
 fn write_exr(
     file: &mut std::fs::File,
     image: &Image,
     options: &ExrOptions,
+    placement: Option<&super::band::Placement>,
     clamped: &mut u64,
 ) -> Result<(), String> {
     use exr::prelude::{
@@ -218,7 +231,11 @@ fn write_exr(
         Encoding::SMALL_LOSSLESS,
         AnyChannels::sort(channels.into()),
     );
-    ExrImage::from_layer(layer)
+    let mut encoded = ExrImage::from_layer(layer);
+    if let Some(placement) = placement {
+        placement.apply(&mut encoded);
+    }
+    encoded
         .write()
         .to_buffered(BufWriter::new(file))
         .map_err(|e| e.to_string())

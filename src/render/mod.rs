@@ -14,6 +14,7 @@
 //! laid over that box in world units.
 
 mod adaptive;
+pub mod band;
 pub mod camera;
 pub mod exr_header;
 pub mod image;
@@ -21,6 +22,7 @@ pub mod light;
 mod lighting;
 mod march;
 pub mod phase;
+pub mod progress;
 pub mod settings;
 mod space;
 mod sweep;
@@ -46,11 +48,10 @@ use crate::failure::{Failure, Outcome};
 use crate::sample::{Aabb, FieldSampler};
 use lighting::Illumination;
 use march::{Frame, Worker, tile_side};
+use progress::Progress;
 use rayon::prelude::*;
 use space::Occupancy;
-use std::io::IsTerminal;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::{Duration, Instant};
+use std::time::Instant;
 use tile::TileOutput;
 
 /// What to render.
@@ -231,10 +232,13 @@ pub fn render_with_stats(
         aov_count: aov_names.len(),
     };
     let side = tile_side(settings.spp);
-    let tiles = settings.width.div_ceil(side) * settings.height.div_ceil(side);
-    let progress = Progress::new(tiles as u64);
+    // Under `--tile I/N` only the band's rows are marched; band edges fall on tile edges.
+    let rows = band::rows(settings.height)?;
+    let tiles_across = settings.width.div_ceil(side);
+    let tiles = rows.start / side * tiles_across..rows.end.div_ceil(side) * tiles_across;
+    let progress = Progress::new(tiles.len() as u64);
     let marching = Instant::now();
-    let outputs: Vec<TileOutput> = (0..tiles)
+    let outputs: Vec<TileOutput> = tiles
         .into_par_iter()
         .map_init(
             || Worker::new(&frame),
@@ -360,53 +364,4 @@ fn aov_names(settings: &RenderSettings, lights: &[Light]) -> Outcome<Vec<String>
         }
     }
     Ok(names)
-}
-
-/// A progress bar on stderr, shown only on a terminal and only once a render has run for a
-/// second (short renders stay silent).
-struct Progress {
-    bar: indicatif::ProgressBar,
-    terminal: bool,
-    shown: AtomicBool,
-    started: Instant,
-}
-
-impl Progress {
-    fn new(tiles: u64) -> Progress {
-        Progress {
-            bar: indicatif::ProgressBar::hidden(),
-            terminal: std::io::stderr().is_terminal(),
-            shown: AtomicBool::new(false),
-            started: Instant::now(),
-        }
-        .with_length(tiles)
-    }
-
-    fn with_length(self, tiles: u64) -> Progress {
-        self.bar.set_length(tiles);
-        self
-    }
-
-    fn tick(&self) {
-        if self.terminal
-            && !self.shown.load(Ordering::Relaxed)
-            && self.started.elapsed() > Duration::from_secs(1)
-            && !self.shown.swap(true, Ordering::Relaxed)
-        {
-            self.bar
-                .set_draw_target(indicatif::ProgressDrawTarget::stderr());
-            if let Ok(style) = indicatif::ProgressStyle::with_template(
-                "rendering {bar:40} {percent}% ({eta} left)",
-            ) {
-                self.bar.set_style(style);
-            }
-        }
-        self.bar.inc(1);
-    }
-
-    fn finish(&self) {
-        if self.shown.load(Ordering::Relaxed) {
-            self.bar.finish_and_clear();
-        }
-    }
 }

@@ -17,7 +17,6 @@ use crate::particles::splat::{Deposit, Kernel};
 use crate::particles::{Particles, Values, chaos, flame, guide, scatter, wisp};
 use crate::sample::{FieldSampler, GridDerivative, GridSource, Interp};
 use glam::DVec3;
-use std::path::Path;
 use std::sync::Arc;
 
 /// Largest particle file read (the run's memory budget applies as well).
@@ -39,10 +38,10 @@ pub fn register(r: &mut Registry) {
         "particles",
         &["loadparticles(string path) -> particles"],
         "reads points and their attributes from a PLY (ASCII or binary) or CSV file",
-        |_, a| {
+        |interp, a| {
             let path = a.string("path")?;
             let bytes = crate::input::read_whole(
-                &crate::output::source(Path::new(path)),
+                &interp.files.reading(path)?,
                 MAX_FILE_BYTES,
                 "a particle file",
             )
@@ -58,9 +57,10 @@ pub fn register(r: &mut Registry) {
         &["saveparticles(particles p, string path, bool ascii?) -> void"],
         "writes p to a PLY file (binary little endian, or ASCII with ascii = true) or, for a \
          path ending in .csv, a CSV file with a header row",
-        |_, a| {
+        |interp, a| {
             let set = particles_of(a.get("p")?)?;
             let path = a.string("path")?;
+            let target = interp.files.writing(path)?;
             let ascii = matches!(a.opt("ascii"), Some(Value::Bool(true)));
             let kind = if path.to_ascii_lowercase().ends_with(".csv") {
                 FileKind::Csv
@@ -70,7 +70,7 @@ pub fn register(r: &mut Registry) {
                 FileKind::PlyBinary
             };
             let bytes = io::write(set, kind)?;
-            crate::output::write_atomically(Path::new(path), |file| {
+            crate::output::write_atomically(&target, |file| {
                 use std::io::Write;
                 file.write_all(&bytes).map_err(|e| e.to_string())
             })
