@@ -164,13 +164,13 @@ pub fn load(path: &Path, name: &str, width: usize) -> Outcome<(Cache, LoadCheck)
     let cell =
         |ijk: [i64; 3]| -> [usize; 3] { [0, 1, 2].map(|a| (ijk[a] - i64::from(min[a])) as usize) };
     for leaf in &grid.leaves {
-        for offset in 0..vdb::LEAF_VOXELS {
-            let local = [offset >> 6, (offset >> 3) & 7, offset & 7];
-            let ijk = [0, 1, 2].map(|a| i64::from(leaf.origin[a]) + local[a] as i64);
-            let value = &leaf.values[offset * width..(offset + 1) * width];
-            check.count(1, value);
-            builder.set(cell(ijk), value)?;
-        }
+        check.voxels += vdb::LEAF_VOXELS as u64;
+        check.non_finite += leaf
+            .values
+            .chunks_exact(width)
+            .filter(|value| value.iter().any(|v| !v.is_finite()))
+            .count() as u64;
+        builder.set_leaf(cell(leaf.origin.map(i64::from)), &leaf.values)?;
     }
     for tile in &grid.tiles {
         if tile.value[..width] == grid.background[..width] {
@@ -178,15 +178,8 @@ pub fn load(path: &Path, name: &str, width: usize) -> Outcome<(Cache, LoadCheck)
         }
         let size = i64::from(tile.size);
         check.count((size * size * size) as u64, &tile.value[..width]);
-        let origin = tile.origin.map(i64::from);
-        for i in 0..size {
-            for j in 0..size {
-                for k in 0..size {
-                    let ijk = [origin[0] + i, origin[1] + j, origin[2] + k];
-                    builder.set(cell(ijk), &tile.value[..width])?;
-                }
-            }
-        }
+        let lo = cell(tile.origin.map(i64::from));
+        builder.fill_box(lo, lo.map(|i| i + tile.size as usize), &tile.value[..width])?;
     }
     let cache = builder
         .build()
