@@ -2,7 +2,8 @@
 //!
 //! felt writes the 256³ pyroclastic density once (`cachesave`, zip compression, as in
 //! `peer_render`); then both sides read that file, each timed in its own process, best of
-//! `RUNS` after a warm-up (the file is in the page cache by then). felt is timed twice: reading
+//! `RUNS` after a warm-up (the file is in the page cache by then), in wall and in CPU seconds
+//! (the process's clock, all threads: steadier when other work shares the machine). felt is timed twice: reading
 //! the grid (`vdb::read_grid`: parse, inflate, decode into leaves) and the whole `cacheload`
 //! (that plus building the brick cache the renderer reads). OpenVDB's reader is timed as
 //! `pyopenvdb.read` does it by default, and again with `OPENVDB_DISABLE_DELAYED_LOAD` set: by
@@ -30,8 +31,8 @@ use pyroclastic_grid::{CELLS, make_grid_script};
 const RUNS: usize = 5;
 const PYTHON: &str = "/usr/bin/python3";
 
-/// Times `pyopenvdb.read(path, "density")`: best of the runs after one warm-up, in seconds,
-/// with the leaf count as a check that the whole grid was read.
+/// Times `pyopenvdb.read(path, "density")`: the best wall and the best CPU seconds of the runs
+/// after one warm-up, with the leaf count as a check that the whole grid was read.
 const PEER_SCRIPT: &str = r#"
 import sys, time
 try:
@@ -40,13 +41,21 @@ except ImportError:
     import openvdb as vdb
 path, runs = sys.argv[1], int(sys.argv[2])
 vdb.read(path, "density")
-best = float("inf")
+wall, cpu = float("inf"), float("inf")
 for _ in range(runs):
-    start = time.perf_counter()
+    start, start_cpu = time.perf_counter(), time.process_time()
     grid = vdb.read(path, "density")
-    best = min(best, time.perf_counter() - start)
-print(best, grid.leafCount(), vdb.LIBRARY_VERSION)
+    wall = min(wall, time.perf_counter() - start)
+    cpu = min(cpu, time.process_time() - start_cpu)
+print(wall, cpu, grid.leafCount(), vdb.LIBRARY_VERSION)
 "#;
+
+/// Best wall and CPU seconds of one reader.
+#[derive(Clone, Copy)]
+struct Time {
+    wall: f64,
+    cpu: f64,
+}
 
 fn peer_available() -> bool {
     Command::new(PYTHON)
@@ -58,8 +67,8 @@ fn peer_available() -> bool {
         .is_ok_and(|o| o.status.success())
 }
 
-/// Best `pyopenvdb.read` time and the leaf count, with delayed loading on or off.
-fn peer_read(path: &Path, delayed: bool) -> (f64, usize, String) {
+/// Best `pyopenvdb.read` times and the leaf count, with delayed loading on or off.
+fn peer_read(path: &Path, delayed: bool) -> (Time, usize, String) {
     let mut command = Command::new(PYTHON);
     command
         .args(["-c", PEER_SCRIPT])
@@ -76,24 +85,43 @@ fn peer_read(path: &Path, delayed: bool) -> (f64, usize, String) {
         String::from_utf8_lossy(&output.stderr)
     );
     let mut words = text.split_whitespace();
-    let seconds = words
-        .next()
-        .and_then(|w| w.parse().ok())
-        .unwrap_or(f64::NAN);
-    let leaves = words.next().and_then(|w| w.parse().ok()).unwrap_or(0);
-    (seconds, leaves, words.collect::<Vec<_>>().join(" "))
+    let mut number = || words.next().and_then(|w| w.parse().ok());
+    let wall = number().unwrap_or(f64::NAN);
+    let cpu = number().unwrap_or(f64::NAN);
+    let leaves = number().map_or(0, |n: f64| n as usize);
+    (
+        Time { wall, cpu },
+        leaves,
+        words.collect::<Vec<_>>().join(" "),
+    )
 }
 
-/// Best of `RUNS` after a warm-up.
-fn best_of(mut run: impl FnMut()) -> f64 {
+/// CPU seconds of this process, all threads, from the kernel's per-process clock (finer
+/// than the 1/100 s ticks of `/proc/self/stat`).
+fn process_cpu() -> f64 {
+    let mut t = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `t` is a valid timespec for the call to fill.
+    unsafe { libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut t) };
+    t.tv_sec as f64 + t.tv_nsec as f64 * 1e-9
+}
+
+/// Best wall and CPU seconds of `RUNS` runs after a warm-up.
+fn best_of(mut run: impl FnMut()) -> Time {
     run();
-    (0..RUNS)
-        .map(|_| {
-            let start = Instant::now();
-            run();
-            start.elapsed().as_secs_f64()
-        })
-        .fold(f64::INFINITY, f64::min)
+    let mut best = Time {
+        wall: f64::INFINITY,
+        cpu: f64::INFINITY,
+    };
+    for _ in 0..RUNS {
+        let (start, start_cpu) = (Instant::now(), process_cpu());
+        run();
+        best.wall = best.wall.min(start.elapsed().as_secs_f64());
+        best.cpu = best.cpu.min(process_cpu() - start_cpu);
+    }
+    best
 }
 
 fn main() {
@@ -124,12 +152,21 @@ fn main() {
     assert_eq!(leaves, peer_leaves, "both readers see the same leaves");
 
     println!(
-        "## loading a {CELLS}^3 density VDB ({leaves} leaves, {:.1} MB, zip), best of {RUNS} after a warm-up; felt on 1 thread",
-        bytes as f64 / 1e6
+        "## loading a {CELLS}^3 density VDB ({leaves} leaves, {:.1} MB, zip), best of {RUNS} after a warm-up; felt on {} threads (rayon), OpenVDB on its own",
+        bytes as f64 / 1e6,
+        rayon::current_num_threads()
     );
-    println!("| reader | s | felt cacheload / it |");
-    println!("|---|---|---|");
-    let row = |name: &str, s: f64| println!("| {name} | {s:.4} | {:.2} |", load / s);
+    println!("| reader | wall s | CPU s | felt cacheload / it, wall | felt cacheload / it, CPU |");
+    println!("|---|---|---|---|---|");
+    let row = |name: &str, t: Time| {
+        println!(
+            "| {name} | {:.4} | {:.4} | {:.2} | {:.2} |",
+            t.wall,
+            t.cpu,
+            load.wall / t.wall,
+            load.cpu / t.cpu
+        )
+    };
     row(
         &format!("pyopenvdb.read, OpenVDB {version}, every leaf read"),
         full,
@@ -138,6 +175,6 @@ fn main() {
         "pyopenvdb.read, default (leaf values inflated on first use)",
         delayed,
     );
-    println!("| felt vdb::read_grid (parse, inflate, decode) | {read:.4} | |");
-    println!("| felt cacheload (read_grid + brick cache) | {load:.4} | |");
+    row("felt vdb::read_grid (parse, inflate, decode)", read);
+    row("felt cacheload (read_grid + brick cache)", load);
 }
