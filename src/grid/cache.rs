@@ -527,7 +527,7 @@ impl SparseBuilder {
         }
         let shape = self.cache.shape;
         let whole_brick =
-            (0..3).all(|a| first[a] % BRICK == 0 && first[a] + BRICK <= shape.cells[a]);
+            (0..3).all(|a| first[a].is_multiple_of(BRICK) && first[a] + BRICK <= shape.cells[a]);
         if !whole_brick {
             for (n, value) in values.chunks_exact(width).enumerate() {
                 let local = [n >> 6, (n >> 3) & 7, n & 7];

@@ -7,7 +7,8 @@
 //! decision is how inactive values come back: OpenVDB stores only active values plus a
 //! one-byte code saying how to restore the rest (background, −background, one or two stored
 //! values, chosen per voxel by a selection mask), and felt restores them exactly as OpenVDB
-//! does, so a level set's inactive interior reads −background.
+//! does, so a level set's inactive interior reads −background. Leaf buffers are found in file
+//! order, then inflated and decoded on all threads, each thread reusing one inflater.
 
 use super::compress::{self, Inflater};
 use super::cursor::Cursor;
@@ -220,25 +221,30 @@ pub(super) fn read_tree(cur: &mut Cursor, format: &TreeFormat) -> Outcome<Tree> 
     children.sort_by_key(|(origin, _)| *origin);
     // Each buffer's length is only known once the one before it is read, so the buffers are
     // located in file order first; then they are inflated and decoded in parallel, each into
-    // its own leaf, and collected in order (the same leaves for any thread count).
+    // its own leaf, and collected in order: the same leaves, and for a damaged file the same
+    // first failure, for any thread count.
     let mut located = Vec::new();
     for pending in children.into_iter().flat_map(|(_, pending)| pending) {
         located.push(reader.locate_leaf_buffer(pending)?);
     }
     let cur: &Cursor = reader.cur;
-    let leaves = located
+    let decoded: Vec<Outcome<VdbLeaf>> = located
         .into_par_iter()
         .with_min_len(64)
-        .map_init(DecodeScratch::default, |scratch, (pending, buffer)| {
-            let mut values = vec![0.0; LEAF_VOXELS * format.value.components];
-            buffer.decode(cur, format, &pending.active, &mut values, scratch)?;
-            Ok(VdbLeaf {
-                origin: pending.origin,
-                values,
-                active: pending.active,
-            })
-        })
-        .collect::<Outcome<Vec<VdbLeaf>>>()?;
+        .map_init(
+            DecodeScratch::default,
+            |scratch, (pending, buffer)| -> Outcome<VdbLeaf> {
+                let mut values = vec![0.0; LEAF_VOXELS * format.value.components];
+                buffer.decode(cur, format, &pending.active, &mut values, scratch)?;
+                Ok(VdbLeaf {
+                    origin: pending.origin,
+                    values,
+                    active: pending.active,
+                })
+            },
+        )
+        .collect();
+    let leaves = decoded.into_iter().collect::<Outcome<Vec<VdbLeaf>>>()?;
     Ok(Tree {
         background,
         leaves,
