@@ -34,8 +34,10 @@ use std::time::Instant;
 #[path = "peer/felt_run.rs"]
 mod felt_run;
 use felt_run::{cpu_seconds, median, printed, run_felt};
+#[path = "peer/pyroclastic_grid.rs"]
+mod pyroclastic_grid;
+use pyroclastic_grid::{CELLS, make_grid_script};
 
-const CELLS: usize = 256;
 const WIDTH: usize = 640;
 const HEIGHT: usize = 360;
 const RUNS: usize = 3;
@@ -51,20 +53,6 @@ const FOV: f64 = 45.0;
 
 fn voxel() -> f64 {
     2.0 / CELLS as f64
-}
-
-/// Writes the density grid with felt.
-fn make_grid_script(path: &Path) -> String {
-    format!(
-        "domain d((-1, -1, -1), (2, 2, 2), (0, 0, 0), 2.0 / {CELLS});
-scalarfield noise = fbm(perlin(), 5, scalarfield(2.0), scalarfield(2.0), scalarfield(0.5));
-scalarfield density = lsdensitysmooth(pyroclastic((0, 0, 0), 0.6, noise, 0.3), 0.05);
-scalarcache c(d);
-cachewrite(c, density);
-cachesave(c, \"{}\");
-",
-        path.display()
-    )
 }
 
 /// Loads the grid and renders it once at `step` (world units) into `out`, with `shadows`

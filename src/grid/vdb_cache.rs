@@ -315,12 +315,30 @@ pub fn load(path: &Path, name: &str, width: usize) -> Outcome<(Cache, LoadCheck)
         builder.set(cell(ijk), &signed[..value.len()])
     };
     for leaf in &grid.leaves {
-        for offset in 0..vdb::LEAF_VOXELS {
-            let local = [offset >> 6, (offset >> 3) & 7, offset & 7];
-            let ijk = [0, 1, 2].map(|a| i64::from(leaf.origin[a]) + local[a] as i64);
-            let value = &leaf.values[offset * width..(offset + 1) * width];
-            check.count(1, value);
-            set(&mut builder, ijk, value)?;
+        let origin = leaf.origin.map(i64::from);
+        let edge = vdb::LEAF_DIM as i64 - 1;
+        if !(inside(origin) && inside(origin.map(|o| o + edge))) {
+            // A leaf the cache's box cuts goes voxel by voxel.
+            for offset in 0..vdb::LEAF_VOXELS {
+                let local = [offset >> 6, (offset >> 3) & 7, offset & 7];
+                let ijk = [0, 1, 2].map(|a| origin[a] + local[a] as i64);
+                let value = &leaf.values[offset * width..(offset + 1) * width];
+                check.count(1, value);
+                set(&mut builder, ijk, value)?;
+            }
+            continue;
+        }
+        check.voxels += vdb::LEAF_VOXELS as u64;
+        check.non_finite += leaf
+            .values
+            .chunks_exact(width)
+            .filter(|value| value.iter().any(|v| !v.is_finite()))
+            .count() as u64;
+        if sign == 1.0 {
+            builder.set_leaf(cell(origin), &leaf.values)?;
+        } else {
+            let flipped: Vec<f32> = leaf.values.iter().map(|v| sign * v).collect();
+            builder.set_leaf(cell(origin), &flipped)?;
         }
     }
     for tile in &grid.tiles {
@@ -330,6 +348,12 @@ pub fn load(path: &Path, name: &str, width: usize) -> Outcome<(Cache, LoadCheck)
         let size = i64::from(tile.size);
         check.count((size * size * size) as u64, &tile.value[..width]);
         let origin = tile.origin.map(i64::from);
+        if inside(origin) && inside(origin.map(|o| o + size - 1)) {
+            let lo = cell(origin);
+            let value: Vec<f32> = tile.value[..width].iter().map(|v| sign * v).collect();
+            builder.fill_box(lo, lo.map(|i| i + tile.size as usize), &value)?;
+            continue;
+        }
         for i in 0..size {
             for j in 0..size {
                 for k in 0..size {

@@ -320,3 +320,62 @@ fn fills_evaluate_exactly_at_cell_centres() {
     cache.fill_all();
     assert!(all_cells(&cache).iter().all(|&bits| bits == 1f32.to_bits()));
 }
+
+/// Whole blocks and boxes written at once equal the same cells written one at a time, whether
+/// they line up with bricks or straddle them, for scalar and vector caches.
+#[test]
+fn block_writes_equal_cell_by_cell_writes() {
+    // 20 × 16 × 12 cells: the last bricks along x and z are partial.
+    let d = domain(DVec3::ZERO, DVec3::new(20.0, 16.0, 12.0), DVec3::ZERO, 1.0);
+    for width in [1usize, 3] {
+        let background = vec![0.5; width];
+        let leaf: Vec<f32> = (0..BRICK_CELLS * width)
+            .map(|n| n as f32 * 0.25 - 7.0)
+            .collect();
+        let tile = vec![2.0f32; width];
+        let mut by_block = SparseBuilder::new(d.clone(), width, background.clone()).unwrap();
+        let mut by_cell = SparseBuilder::new(d.clone(), width, background.clone()).unwrap();
+        // One aligned leaf, one straddling four bricks; a box covering one whole brick and parts
+        // of its neighbours, clipped at the partial far brick.
+        for first in [[8, 0, 0], [3, 5, 2]] {
+            by_block.set_leaf(first, &leaf).unwrap();
+            for (n, value) in leaf.chunks_exact(width).enumerate() {
+                let cell = [
+                    first[0] + (n >> 6),
+                    first[1] + ((n >> 3) & 7),
+                    first[2] + (n & 7),
+                ];
+                by_cell.set(cell, value).unwrap();
+            }
+        }
+        let (lo, hi) = ([6, 8, 0], [20, 16, 9]);
+        by_block.fill_box(lo, hi, &tile).unwrap();
+        for z in lo[2]..hi[2] {
+            for y in lo[1]..hi[1] {
+                for x in lo[0]..hi[0] {
+                    by_cell.set([x, y, z], &tile).unwrap();
+                }
+            }
+        }
+        let mut refused = SparseBuilder::new(d.clone(), width, background.clone()).unwrap();
+        assert!(
+            refused.set_leaf([16, 0, 0], &leaf).is_err(),
+            "past the far face"
+        );
+        assert!(refused.set_leaf([0, 0, 0], &leaf[1..]).is_err());
+        assert!(refused.fill_box([0, 0, 0], [21, 1, 1], &tile).is_err());
+        let (a, b) = (by_block.build(), by_cell.build());
+        assert_eq!(a.bricks_filled(), b.bricks_filled());
+        for z in 0..12 {
+            for y in 0..16 {
+                for x in 0..20 {
+                    assert_eq!(
+                        a.value_at_cell(x, y, z),
+                        b.value_at_cell(x, y, z),
+                        "{x} {y} {z}"
+                    );
+                }
+            }
+        }
+    }
+}

@@ -6,9 +6,9 @@
 //! `Err` and never undefined behaviour. The key decision: every decoder is told how many bytes
 //! the caller expects and never produces more, so a hostile length field cannot inflate memory.
 
-use flate2::read::ZlibDecoder;
+use flate2::FlushDecompress;
 use flate2::write::ZlibEncoder;
-use std::io::{Read, Write};
+use std::io::Write;
 
 /// The blosc header is 16 bytes: version, codec version, flags, type size, then the raw
 /// length, the block size and the stream length as little-endian u32.
@@ -23,22 +23,69 @@ const BLOSC_DONT_SPLIT: u8 = 0x10;
 const BLOSC_MAX_SPLITS: usize = 16;
 const BLOSC_MIN_SPLIT_ELEMENTS: usize = 128;
 
-/// Inflates a zlib stream that must hold exactly `expected` bytes.
-pub(crate) fn unzip(src: &[u8], expected: usize) -> Result<Vec<u8>, String> {
-    let mut out = Vec::with_capacity(expected);
-    let limit = expected as u64 + 1;
-    ZlibDecoder::new(src)
-        .take(limit)
-        .read_to_end(&mut out)
-        .map_err(|e| format!("zip data is corrupt ({e})"))?;
-    if out.len() != expected {
-        return Err(format!(
-            "zip data inflates to {}{} bytes, expected {expected}",
-            out.len(),
-            if out.len() > expected { " or more" } else { "" }
-        ));
+/// A zlib inflater kept from one value buffer to the next.
+///
+/// A file holds one zlib stream per leaf, a few kilobytes each; setting up a fresh decoder per
+/// stream (its state and window) cost more than inflating the stream, so one reader resets the
+/// same decoder for every buffer and inflates into one reused byte buffer.
+pub(crate) struct Inflater {
+    state: flate2::Decompress,
+    /// The last buffer inflated (or decoded from blosc).
+    pub(crate) out: Vec<u8>,
+}
+
+impl Default for Inflater {
+    fn default() -> Self {
+        Inflater {
+            state: flate2::Decompress::new(true),
+            out: Vec::new(),
+        }
     }
-    Ok(out)
+}
+
+impl Inflater {
+    /// Inflates a zlib stream that must hold exactly `expected` bytes; the bytes stay valid
+    /// until the next call.
+    pub(crate) fn unzip(&mut self, src: &[u8], expected: usize) -> Result<&[u8], String> {
+        // One byte of room past `expected` tells a stream that is too long from one that fits.
+        self.out.clear();
+        self.out.resize(expected + 1, 0);
+        let produced = inflate_with(&mut self.state, src, &mut self.out)
+            .map_err(|e| format!("zip data is corrupt ({e})"))?;
+        if produced != expected {
+            return Err(format!(
+                "zip data inflates to {produced}{} bytes, expected {expected}",
+                if produced > expected { " or more" } else { "" }
+            ));
+        }
+        Ok(&self.out[..expected])
+    }
+}
+
+/// Inflates one whole zlib stream from `src` into `out` with a reset `state`; returns the bytes
+/// produced, at most `out.len()`.
+fn inflate_with(
+    state: &mut flate2::Decompress,
+    src: &[u8],
+    out: &mut [u8],
+) -> Result<usize, flate2::DecompressError> {
+    state.reset(true);
+    loop {
+        let (read, written) = (state.total_in() as usize, state.total_out() as usize);
+        let status =
+            state.decompress(&src[read..], &mut out[written..], FlushDecompress::Finish)?;
+        let (now_read, now_written) = (state.total_in() as usize, state.total_out() as usize);
+        let stalled = now_read == read && now_written == written;
+        if status == flate2::Status::StreamEnd || now_written == out.len() || stalled {
+            return Ok(now_written);
+        }
+    }
+}
+
+/// Inflates a zlib stream that must hold exactly `expected` bytes.
+#[cfg(test)]
+fn unzip(src: &[u8], expected: usize) -> Result<Vec<u8>, String> {
+    Inflater::default().unzip(src, expected).map(<[u8]>::to_vec)
 }
 
 /// Deflates `data` at zlib's default level, as OpenVDB does.
@@ -206,16 +253,8 @@ fn decode_block(
 }
 
 fn inflate_into(payload: &[u8], out: &mut [u8]) -> Result<usize, String> {
-    let mut decoder = ZlibDecoder::new(payload);
-    let mut filled = 0;
-    while filled < out.len() {
-        match decoder.read(&mut out[filled..]) {
-            Ok(0) => break,
-            Ok(n) => filled += n,
-            Err(e) => return Err(format!("zlib data is corrupt ({e})")),
-        }
-    }
-    Ok(filled)
+    let mut state = flate2::Decompress::new(true);
+    inflate_with(&mut state, payload, out).map_err(|e| format!("zlib data is corrupt ({e})"))
 }
 
 /// Undoes blosc's byte shuffle: `shuffled` holds byte `b` of every element, then byte `b + 1`,

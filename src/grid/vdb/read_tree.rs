@@ -7,15 +7,16 @@
 //! decision is how inactive values come back: OpenVDB stores only active values plus a
 //! one-byte code saying how to restore the rest (background, −background, one or two stored
 //! values, chosen per voxel by a selection mask), and felt restores them exactly as OpenVDB
-//! does, so a level set's inactive interior reads −background.
+//! does, so a level set's inactive interior reads −background. Leaf buffers are found in file
+//! order, then inflated and decoded on all threads, each thread reusing one inflater.
 
-use super::compress;
+use super::compress::{self, Inflater};
 use super::cursor::Cursor;
 use super::half::f16_to_f32;
 use super::read::VERSION_NODE_MASK_COMPRESSION;
 use super::{LEAF_VOXELS, VdbLeaf, VdbTile};
 use crate::failure::Outcome;
-use std::borrow::Cow;
+use rayon::prelude::*;
 use std::collections::HashSet;
 
 pub(super) const COMPRESS_ZIP: u32 = 0x1;
@@ -160,7 +161,7 @@ struct TreeReader<'r, 'a> {
     tiles: Vec<VdbTile>,
     /// One internal node's values, reused from node to node.
     node_values: Vec<f32>,
-    scratch: Vec<f32>,
+    scratch: DecodeScratch,
 }
 
 pub(super) fn read_tree(cur: &mut Cursor, format: &TreeFormat) -> Outcome<Tree> {
@@ -190,7 +191,7 @@ pub(super) fn read_tree(cur: &mut Cursor, format: &TreeFormat) -> Outcome<Tree> 
         background,
         tiles: Vec::new(),
         node_values: Vec::new(),
-        scratch: Vec::new(),
+        scratch: DecodeScratch::default(),
     };
     let mut origins = HashSet::new();
     for _ in 0..tile_count {
@@ -218,10 +219,32 @@ pub(super) fn read_tree(cur: &mut Cursor, format: &TreeFormat) -> Outcome<Tree> 
         children.push((origin, pending));
     }
     children.sort_by_key(|(origin, _)| *origin);
-    let mut leaves = Vec::new();
+    // Each buffer's length is only known once the one before it is read, so the buffers are
+    // located in file order first; then they are inflated and decoded in parallel, each into
+    // its own leaf, and collected in order: the same leaves, and for a damaged file the same
+    // first failure, for any thread count.
+    let mut located = Vec::new();
     for pending in children.into_iter().flat_map(|(_, pending)| pending) {
-        leaves.push(reader.read_leaf_buffer(pending)?);
+        located.push(reader.locate_leaf_buffer(pending)?);
     }
+    let cur: &Cursor = reader.cur;
+    let decoded: Vec<Outcome<VdbLeaf>> = located
+        .into_par_iter()
+        .with_min_len(64)
+        .map_init(
+            DecodeScratch::default,
+            |scratch, (pending, buffer)| -> Outcome<VdbLeaf> {
+                let mut values = vec![0.0; LEAF_VOXELS * format.value.components];
+                buffer.decode(cur, format, &pending.active, &mut values, scratch)?;
+                Ok(VdbLeaf {
+                    origin: pending.origin,
+                    values,
+                    active: pending.active,
+                })
+            },
+        )
+        .collect();
+    let leaves = decoded.into_iter().collect::<Outcome<Vec<VdbLeaf>>>()?;
     Ok(Tree {
         background,
         leaves,
@@ -229,7 +252,7 @@ pub(super) fn read_tree(cur: &mut Cursor, format: &TreeFormat) -> Outcome<Tree> 
     })
 }
 
-impl TreeReader<'_, '_> {
+impl<'a> TreeReader<'_, 'a> {
     fn check_root_origin(
         &self,
         at: usize,
@@ -269,12 +292,12 @@ impl TreeReader<'_, '_> {
         // Old files store values only for the slots that hold no child.
         let count = if old_layout { slots - children } else { slots };
         self.node_values.resize(slots * components, 0.0);
-        read_values(
+        let out = &mut self.node_values[..count * components];
+        locate_values(self.cur, self.format, self.background, &value_mask, count)?.decode(
             self.cur,
             self.format,
-            self.background,
             &value_mask,
-            &mut self.node_values[..count * components],
+            out,
             &mut self.scratch,
         )?;
         let tile_size = 1i32 << level.child_log2;
@@ -315,8 +338,12 @@ impl TreeReader<'_, '_> {
         Ok(())
     }
 
-    fn read_leaf_buffer(&mut self, pending: PendingLeaf) -> Outcome<VdbLeaf> {
-        let components = self.format.value.components;
+    /// Finds a leaf's value buffer, reading past it (and past the auxiliary buffers of very old
+    /// files, which are dropped).
+    fn locate_leaf_buffer(
+        &mut self,
+        pending: PendingLeaf,
+    ) -> Outcome<(PendingLeaf, ValueBuffer<'a>)> {
         // The buffer repeats the topology's value mask; OpenVDB reads files by the topology's.
         self.cur.take(64, "a leaf buffer's value mask")?;
         let mut extra_buffers = 0;
@@ -324,31 +351,24 @@ impl TreeReader<'_, '_> {
             self.cur.take(12, "a leaf buffer's origin")?;
             extra_buffers = (self.cur.i8("a leaf's buffer count")? as i32 - 1).max(0);
         }
-        let mut values = vec![0.0; LEAF_VOXELS * components];
-        read_values(
+        let buffer = locate_values(
             self.cur,
             self.format,
             self.background,
             &pending.active,
-            &mut values,
-            &mut self.scratch,
+            LEAF_VOXELS,
         )?;
-        // Auxiliary buffers of very old files are read past and dropped.
         let element = self.element_format();
         for _ in 0..extra_buffers {
             let zipped = self.format.compression & COMPRESS_ZIP;
-            read_data(
+            locate_data(
                 self.cur,
                 LEAF_VOXELS * element.bytes(),
                 zipped,
                 "an auxiliary leaf buffer",
             )?;
         }
-        Ok(VdbLeaf {
-            origin: pending.origin,
-            values,
-            active: pending.active,
-        })
+        Ok((pending, buffer))
     }
 
     fn element_format(&self) -> ValueFormat {
@@ -372,18 +392,44 @@ fn child_origin(origin: [i32; 3], slot: usize, level: Level) -> [i32; 3] {
     [0, 1, 2].map(|a| origin[a] + (local[a] << level.child_log2))
 }
 
-/// Reads the values of one node into `out` (`value_mask.len() × 64` values, or fewer for old
-/// internal nodes), restoring the inactive ones the way the node's code says.
-fn read_values(
-    cur: &mut Cursor,
+/// What one node's value buffer needs for decoding, its bytes located but not yet read.
+struct ValueBuffer<'a> {
+    /// Where the stored data starts, for messages.
+    at: usize,
+    /// The values of inactive voxels: `[0]` where the selection mask is clear, `[1]` where set.
+    inactive: [[f32; 3]; 2],
+    selection: Option<Vec<u64>>,
+    /// Values stored: all of the node's, or only its active ones.
+    stored: usize,
+    count: usize,
+    data: Data<'a>,
+}
+
+/// The stored values' bytes.
+enum Data<'a> {
+    /// Nothing stored (an empty half-float buffer).
+    Empty,
+    Raw(&'a [u8]),
+    Zip(&'a [u8]),
+    Blosc(&'a [u8]),
+}
+
+/// One thread's buffers for decoding.
+#[derive(Default)]
+struct DecodeScratch {
+    inflater: Inflater,
+    values: Vec<f32>,
+}
+
+/// Reads the header of one node's value buffer (`count` values, `value_mask.len() × 64` or
+/// fewer for old internal nodes) and reads past its data.
+fn locate_values<'a>(
+    cur: &mut Cursor<'a>,
     format: &TreeFormat,
     background: [f32; 3],
     value_mask: &[u64],
-    out: &mut [f32],
-    scratch: &mut Vec<f32>,
-) -> Outcome<()> {
-    let components = format.value.components;
-    let count = out.len() / components;
+    count: usize,
+) -> Outcome<ValueBuffer<'a>> {
     let at = cur.pos();
     let code = if format.version >= VERSION_NODE_MASK_COMPRESSION {
         cur.i8("a value buffer's compression code")?
@@ -432,47 +478,84 @@ fn read_values(
         ));
     }
     let element = element_format(format);
+    let data_at = cur.pos();
     // OpenVDB writes nothing at all for an empty half-float buffer.
-    if !(format.half && stored == 0) {
-        let bytes = read_data(
+    let data = if format.half && stored == 0 {
+        Data::Empty
+    } else {
+        locate_data(
             cur,
             stored * element.bytes(),
             format.compression,
             "a value buffer",
-        )?;
-        if stored == count {
-            element.decode(&bytes, out);
-        } else {
-            scratch.resize(stored * components, 0.0);
-            element.decode(&bytes, scratch);
+        )?
+    };
+    Ok(ValueBuffer {
+        at: data_at,
+        inactive,
+        selection,
+        stored,
+        count,
+        data,
+    })
+}
+
+impl ValueBuffer<'_> {
+    /// Decodes the values into `out` (`count` values), restoring the inactive ones the way the
+    /// node's code says. `cur` only names the place in messages.
+    fn decode(
+        &self,
+        cur: &Cursor,
+        format: &TreeFormat,
+        value_mask: &[u64],
+        out: &mut [f32],
+        scratch: &mut DecodeScratch,
+    ) -> Outcome<()> {
+        let components = format.value.components;
+        let element = element_format(format);
+        let expected = self.stored * element.bytes();
+        let fail = |e: String| cur.fail(self.at, format!("a value buffer: {e}"));
+        let bytes: &[u8] = match self.data {
+            Data::Empty => &[],
+            Data::Raw(bytes) => bytes,
+            Data::Zip(packed) => scratch.inflater.unzip(packed, expected).map_err(fail)?,
+            Data::Blosc(packed) => {
+                scratch.inflater.out = compress::unblosc(packed, expected).map_err(fail)?;
+                &scratch.inflater.out
+            }
+        };
+        if self.stored == self.count {
+            element.decode(bytes, out);
+            return Ok(());
         }
-    }
-    if stored != count {
+        let values = &mut scratch.values;
+        values.resize(self.stored * components, 0.0);
+        element.decode(bytes, values);
         let mut next = 0;
         for (n, value) in out.chunks_exact_mut(components).enumerate() {
             if bit(value_mask, n) {
-                value.copy_from_slice(&scratch[next * components..(next + 1) * components]);
+                value.copy_from_slice(&values[next * components..(next + 1) * components]);
                 next += 1;
             } else {
-                let pick = selection.as_ref().is_some_and(|s| bit(s, n));
-                value.copy_from_slice(&inactive[usize::from(pick)][..components]);
+                let pick = self.selection.as_ref().is_some_and(|s| bit(s, n));
+                value.copy_from_slice(&self.inactive[usize::from(pick)][..components]);
             }
         }
+        Ok(())
     }
-    Ok(())
 }
 
-/// Reads `expected` bytes of a value buffer, inflating them if the grid is compressed. A
-/// compressed chunk starts with its length; a negative length marks bytes stored raw because
-/// compressing them did not help.
-fn read_data<'a>(
+/// Reads past `expected` bytes of a value buffer, compressed if the grid is. A compressed
+/// chunk starts with its length; a negative length marks bytes stored raw because compressing
+/// them did not help.
+fn locate_data<'a>(
     cur: &mut Cursor<'a>,
     expected: usize,
     compression: u32,
     what: &str,
-) -> Outcome<Cow<'a, [u8]>> {
+) -> Outcome<Data<'a>> {
     if compression & (COMPRESS_BLOSC | COMPRESS_ZIP) == 0 {
-        return Ok(Cow::Borrowed(cur.take(expected, what)?));
+        return Ok(Data::Raw(cur.take(expected, what)?));
     }
     let at = cur.pos();
     let length = cur.i64("a compressed chunk's length")?;
@@ -481,16 +564,13 @@ fn read_data<'a>(
         if raw != expected as u64 {
             return Err(cur.fail(at, format!("{what} holds {raw} bytes, expected {expected}")));
         }
-        return Ok(Cow::Borrowed(cur.take(expected, what)?));
+        return Ok(Data::Raw(cur.take(expected, what)?));
     }
     let length = usize::try_from(length).unwrap_or(usize::MAX);
     let packed = cur.take(length, what)?;
-    let decoded = if compression & COMPRESS_BLOSC != 0 {
-        compress::unblosc(packed, expected)
+    Ok(if compression & COMPRESS_BLOSC != 0 {
+        Data::Blosc(packed)
     } else {
-        compress::unzip(packed, expected)
-    };
-    decoded
-        .map(Cow::Owned)
-        .map_err(|e| cur.fail(at, format!("{what}: {e}")))
+        Data::Zip(packed)
+    })
 }
