@@ -97,6 +97,7 @@ fn tetra_expected() -> Mesh {
             DVec3::new(0.0, 0.0, 1.0),
         ],
         triangles: vec![[0, 2, 1], [0, 1, 3], [0, 3, 2]],
+        attributes: Default::default(),
     }
 }
 

@@ -1,6 +1,7 @@
 //! The builtins, grouped by capability. Each group registers its entries in the one registry;
 //! adding a capability means adding a group here, nothing else.
 
+mod attributes;
 mod core;
 mod fields;
 pub mod format;
@@ -8,6 +9,7 @@ mod geometry;
 pub mod grids;
 mod math;
 mod modeling;
+mod nacelle;
 mod rendering;
 mod simulation;
 
@@ -21,5 +23,7 @@ pub fn register_all(r: &mut Registry) {
     modeling::register(r);
     rendering::register(r);
     geometry::register(r);
+    nacelle::register(r);
+    attributes::register(r);
     simulation::register(r);
 }
