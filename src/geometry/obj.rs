@@ -134,6 +134,12 @@ fn split_seams(
         let mut ids = [0u32; 3];
         for (id, &c) in ids.iter_mut().zip(triangle) {
             let v = c.0 as usize;
+            // A corner that leaves out its texture coordinate or normal says nothing about
+            // it, so it fits any use of the vertex; one that names different ones is a seam.
+            let fits = |f: Corner| {
+                (c.1.is_none() || f.1.is_none() || c.1 == f.1)
+                    && (c.2.is_none() || f.2.is_none() || c.2 == f.2)
+            };
             *id = match first_use[v] {
                 None => {
                     first_use[v] = Some(c);
@@ -141,22 +147,28 @@ fn split_seams(
                     n[v] = value(normals, c.2);
                     c.0
                 }
-                Some(first) if first == c => c.0,
-                Some(_) => {
-                    match copies.get(&c) {
-                        Some(&copy) => copy,
-                        None => {
-                            let copy = u32::try_from(mesh.positions.len()).map_err(|_| {
-                            Failure::new("the OBJ file's seams need more vertices than a shape can index")
-                        })?;
-                            mesh.positions.push(mesh.positions[v]);
-                            uv.push(value(textures, c.1));
-                            n.push(value(normals, c.2));
-                            copies.insert(c, copy);
-                            copy
-                        }
-                    }
+                Some(first) if fits(first) => {
+                    let merged = (c.0, first.1.or(c.1), first.2.or(c.2));
+                    uv[v] = value(textures, merged.1);
+                    n[v] = value(normals, merged.2);
+                    first_use[v] = Some(merged);
+                    c.0
                 }
+                Some(_) => match copies.get(&c) {
+                    Some(&copy) => copy,
+                    None => {
+                        let copy = u32::try_from(mesh.positions.len()).map_err(|_| {
+                            Failure::new(
+                                "the OBJ file's seams need more vertices than a shape can index",
+                            )
+                        })?;
+                        mesh.positions.push(mesh.positions[v]);
+                        uv.push(value(textures, c.1));
+                        n.push(value(normals, c.2));
+                        copies.insert(c, copy);
+                        copy
+                    }
+                },
             };
         }
         mesh.triangles.push(ids);
@@ -186,7 +198,11 @@ fn triple<'t>(
             None => {
                 return Err(at(
                     line,
-                    format!("{what} needs {least} coordinates, found {axis}"),
+                    format!(
+                        "{what} needs {} coordinate{}, found {axis}",
+                        ["no", "one", "two", "three"][least],
+                        if least == 1 { "" } else { "s" }
+                    ),
                 ));
             }
         }

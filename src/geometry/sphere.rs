@@ -33,30 +33,33 @@ pub fn uv_sphere(center: DVec3, radius: f64, rings: usize, segments: usize) -> O
     let mut positions = Vec::with_capacity(count);
     let mut normals = Vec::with_capacity(count);
     let mut uv = Vec::with_capacity(count);
-    let mut add = |theta: f64, u: f64| {
-        let phi = 2.0 * PI * u;
-        let normal = DVec3::new(
-            theta.sin() * phi.cos(),
-            theta.cos(),
-            theta.sin() * phi.sin(),
-        );
+    // Positions come from the segment index modulo the segments and the poles are exact, so
+    // the seam's and the poles' copies are bit-identical and weld into a closed surface.
+    let mut add = |normal: DVec3, u: f64, v: f64| {
         positions.push(center + radius * normal);
         normals.push(normal);
-        uv.push(DVec3::new(u, 1.0 - theta / PI, 0.0));
+        uv.push(DVec3::new(u, v, 0.0));
     };
     let segment = |j: usize| j as f64 / segments as f64;
     // A pole vertex takes the u of its segment's middle, where its one triangle is.
     let middle = |j: usize| (j as f64 + 0.5) / segments as f64;
     for j in 0..segments {
-        add(0.0, middle(j));
+        add(DVec3::Y, middle(j), 1.0);
     }
     for i in 1..rings {
+        let theta = PI * i as f64 / rings as f64;
         for j in 0..=segments {
-            add(PI * i as f64 / rings as f64, segment(j));
+            let phi = 2.0 * PI * segment(j % segments);
+            let normal = DVec3::new(
+                theta.sin() * phi.cos(),
+                theta.cos(),
+                theta.sin() * phi.sin(),
+            );
+            add(normal, segment(j), 1.0 - i as f64 / rings as f64);
         }
     }
     for j in 0..segments {
-        add(PI, middle(j));
+        add(-DVec3::Y, middle(j), 0.0);
     }
     let north = |j: usize| j as u32;
     let ring = |i: usize, j: usize| (segments + (i - 1) * columns + j) as u32;

@@ -19,7 +19,7 @@ fn an_obj_seam_becomes_two_vertices() {
     let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\n\
                 vt 0 0\nvt 0.5 0\nvt 0 0.5\nvt 1 1\nvt 0.25 0.75\n\
                 vn 0 0 1\n\
-                f 1/1/1 2/2/1 3/3/1\nf 2/2/1 4/4/1 -3/-1/-1\n";
+                f 1/1/1 2/2/1 3/3/1\nf 2/2/1 4/4/1 -2/-1/-1\n";
     let mesh = parse_obj(text.as_bytes()).unwrap();
     assert_eq!(mesh.positions.len(), 5);
     assert_eq!(mesh.triangles, vec![[0, 1, 2], [1, 3, 4]]);
