@@ -28,7 +28,7 @@ pub fn register(r: &mut Registry) {
         ],
         "the warp X with Lo(x) = Lr(X(x)) after `iterations` nacelle steps from the identity \
          (stable root, vertex where the root is complex, no step where grad(Lr) vanishes); with \
-         `cache`, B·B and B·M·B are sampled onto cache's cells every iteration (faster, less exact)",
+         `cache`, B·B and B·M·B are sampled onto cache's cells every iteration (the chapter's cached variant)",
         |interp, a| {
             let steps = steps(interp, &a)?;
             Ok(Value::Field(steps.last().expect("one step at least").warp.clone()))
