@@ -238,10 +238,10 @@ fn coordinate(token: &[u8], line: usize) -> Outcome<f64> {
 fn corner(token: &[u8], so_far: [usize; 3], line: usize) -> Outcome<Corner> {
     let mut parts = token.split(|&b| b == b'/');
     let vertex = parts.next().unwrap_or(token);
-    let v = index(vertex, so_far[0], "vertex", line)?;
+    let v = index(vertex, token, so_far[0], "vertex", line)?;
     let mut optional = |count: usize, what: &str| -> Outcome<Option<u32>> {
         match parts.next() {
-            Some(part) if !part.is_empty() => index(part, count, what, line).map(Some),
+            Some(part) if !part.is_empty() => index(part, token, count, what, line).map(Some),
             _ => Ok(None),
         }
     };
@@ -250,11 +250,12 @@ fn corner(token: &[u8], so_far: [usize; 3], line: usize) -> Outcome<Corner> {
     Ok((v, t, n))
 }
 
-fn index(token: &[u8], so_far: usize, what: &str, line: usize) -> Outcome<u32> {
+/// One index of a corner; `corner` is the whole corner, for messages.
+fn index(token: &[u8], corner: &[u8], so_far: usize, what: &str, line: usize) -> Outcome<u32> {
     let index: i64 = std::str::from_utf8(token)
         .ok()
         .and_then(|s| s.parse().ok())
-        .ok_or_else(|| at(line, format!("'{}' is not a {what} index", text(token))))?;
+        .ok_or_else(|| at(line, format!("'{}' is not a {what} index", text(corner))))?;
     let resolved = match index {
         0 => return Err(at(line, format!("{what} indices start at 1; found 0"))),
         i if i > 0 => i - 1,

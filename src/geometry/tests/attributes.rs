@@ -41,7 +41,7 @@ fn obj_attribute_indices_are_checked() {
             "texture coordinate 2",
         ),
         ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1//1 2//1 3//1\n", "normal 1"),
-        ("v 0 0 0\nvt\n", "texture coordinate needs 1"),
+        ("v 0 0 0\nvt\n", "texture coordinate needs one coordinate"),
     ] {
         let error = parse_obj(text.as_bytes()).unwrap_err();
         assert!(error.message.contains(message), "{}", error.message);
