@@ -21,6 +21,7 @@ mod calculus;
 pub mod eval;
 pub mod interval;
 pub mod linalg;
+pub mod nacelle;
 pub mod node;
 pub mod noise;
 pub mod program;
@@ -31,7 +32,9 @@ mod tests;
 
 pub use advection::{Resample, Scheme, advect, advect_with};
 pub use node::MathFn;
-pub use sampler::{CompiledField, grids_read, prepare, probe, stats, stats_with_count};
+pub use sampler::{
+    CompiledField, grids_read, prepare, probe, sample_points, stats, stats_with_count,
+};
 
 use crate::failure::{Failure, Outcome};
 use crate::sample::{GridDerivative, GridSource, Interp};

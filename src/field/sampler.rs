@@ -182,6 +182,38 @@ pub fn probe(field: &Field, point: DVec3) -> Outcome<FieldValue> {
     })
 }
 
+/// The values of `field` at each of `points`, in double precision: `width` numbers per point,
+/// point after point. Blocks of points run on all threads; each point's value depends on that
+/// point alone, so the result does not depend on the number of threads.
+pub fn sample_points(field: &Field, points: &[DVec3]) -> Outcome<Vec<f64>> {
+    if let Some(bad) = points.iter().find(|p| !p.is_finite()) {
+        return Err(Failure::new(format!(
+            "a point to evaluate at is not finite: {bad}"
+        )));
+    }
+    prepare(field)?;
+    let program = Program::compile(field.components());
+    let width = field.kind().width();
+    let mut out = vec![0.0; points.len() * width];
+    out.par_chunks_mut(BLOCK * width)
+        .zip(points.par_chunks(BLOCK))
+        .for_each_init(
+            || Evaluator::new(&program),
+            |evaluator, (values, block)| {
+                let xs: Vec<f64> = block.iter().map(|p| p.x).collect();
+                let ys: Vec<f64> = block.iter().map(|p| p.y).collect();
+                let zs: Vec<f64> = block.iter().map(|p| p.z).collect();
+                evaluator.run(&xs, &ys, &zs, Precision::Double);
+                for c in 0..width {
+                    for (i, v) in evaluator.output(c, block.len()).iter().enumerate() {
+                        values[i * width + c] = *v;
+                    }
+                }
+            },
+        );
+    Ok(out)
+}
+
 /// Cells per unit of parallel work in `stats`: fixed, so results do not depend on threads.
 const STATS_RUN: usize = 16 * BLOCK;
 

@@ -42,6 +42,8 @@ pub struct Bvh {
     pub nodes: Vec<Node>,
     /// Triangle corners in tree order.
     pub triangles: Vec<[DVec3; 3]>,
+    /// For each triangle in tree order, its index in the mesh it was built from.
+    pub order: Vec<u32>,
     /// Cheap lower bounds on each triangle's distance, tried before the exact one.
     bounds: Vec<TriangleBound>,
     /// The largest coordinate magnitude of the mesh, for the size of rounding errors.
@@ -86,6 +88,7 @@ impl Bvh {
         Bvh {
             nodes,
             triangles,
+            order,
             bounds,
             magnitude,
         }

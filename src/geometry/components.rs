@@ -63,7 +63,32 @@ pub fn pieces(mesh: &Mesh) -> Vec<Mesh> {
             out[piece].triangles.push(t.map(|v| renumbered[v as usize]));
         }
     }
+    for (name, values) in &mesh.attributes {
+        for (index, part) in out.iter_mut().enumerate() {
+            let kept = (0..n).filter(|&v| vertex_piece[v] == index);
+            part.attributes.insert(name.clone(), values.gather(kept));
+        }
+    }
     out
+}
+
+/// The pieces of `mesh` whose enclosed volume is at least `min_volume` (slivers that a grid
+/// cannot resolve are dropped), and the number and total volume of those dropped.
+pub fn pieces_above(mesh: &Mesh, min_volume: f64) -> (Vec<Mesh>, usize, f64) {
+    let (mut dropped, mut dropped_volume) = (0, 0.0);
+    let kept = pieces(mesh)
+        .into_iter()
+        .filter(|piece| {
+            let volume = piece.volume().abs();
+            let keep = volume >= min_volume;
+            if !keep {
+                dropped += 1;
+                dropped_volume += volume;
+            }
+            keep
+        })
+        .collect();
+    (kept, dropped, dropped_volume)
 }
 
 /// For each vertex, the first vertex at exactly the same position (+0 and −0 being equal).

@@ -58,14 +58,13 @@ impl MeshDistance {
         let moments = moments(&bvh);
         let root = bvh.nodes[0];
         let first = welded(&mesh.positions);
-        let closed = Mesh {
-            positions: mesh.positions.clone(),
-            triangles: mesh
-                .triangles
+        let closed = Mesh::new(
+            mesh.positions.clone(),
+            mesh.triangles
                 .iter()
                 .map(|t| t.map(|v| first[v as usize]))
                 .collect(),
-        }
+        )
         .is_closed();
         Ok(MeshDistance {
             bvh,

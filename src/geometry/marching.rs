@@ -421,10 +421,10 @@ fn merge(slabs: Vec<SlabMesh>) -> Outcome<Mesh> {
         bytes,
         &format!("a mesh of {triangles} triangles and {positions} vertices"),
     )?;
-    let mut mesh = Mesh {
-        positions: Vec::with_capacity(slabs.iter().map(|s| s.positions.len()).sum()),
-        triangles: Vec::with_capacity(slabs.iter().map(|s| s.triangles.len()).sum()),
-    };
+    let mut mesh = Mesh::new(
+        Vec::with_capacity(slabs.iter().map(|s| s.positions.len()).sum()),
+        Vec::with_capacity(slabs.iter().map(|s| s.triangles.len()).sum()),
+    );
     // Global index of each slab's local vertices; foreign ones are resolved in a second pass,
     // once the next slab's vertices have their numbers.
     let mut global: Vec<Vec<u32>> = Vec::with_capacity(slabs.len());

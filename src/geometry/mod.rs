@@ -3,31 +3,40 @@
 //! `marching_cubes` turns a level set (positive inside) into a closed, outward-oriented mesh
 //! (`ls2shape`); `MeshDistance` turns a mesh back into a signed-distance field (`shape2ls`);
 //! `pieces` splits a mesh into connected components; `load_mesh`/`save_mesh` read and write
-//! OBJ and PLY. The one key decision: a `Mesh` is nothing but shared vertex positions and
-//! index triples — no normals, no attributes, no half-edge structure — so every file, every
-//! extraction and every query agrees on one plain representation, and the properties that
-//! matter (closed, oriented, its volume and Euler characteristic) are computed from it on
-//! demand rather than trusted from a flag.
+//! OBJ and PLY; `attributes` holds per-vertex values (normals, texture coordinates, anything
+//! named) and `transfer` carries them from one shape to another through a warp. The one key
+//! decision: a `Mesh` is shared vertex positions, index triples and per-vertex attributes —
+//! no half-edge structure, no per-corner values — so every file, every extraction and every
+//! query agrees on one plain representation, and the properties that matter (closed,
+//! oriented, its volume and Euler characteristic) are computed from it on demand rather than
+//! trusted from a flag.
 
+pub mod attributes;
 mod bvh;
 mod cases;
 mod components;
 mod distance;
 mod io;
+pub mod knives;
 mod marching;
 mod obj;
 mod ply;
+mod sphere;
+pub mod transfer;
 mod winding;
 
 #[cfg(test)]
 mod tests;
 
-pub use components::pieces;
+pub use components::{pieces, pieces_above};
 pub use distance::MeshDistance;
 pub use io::{load_mesh, save_mesh};
 pub use marching::{DEFAULT_MESH_CELLS, default_mesh_domain, marching_cubes};
 pub use obj::{parse_obj, write_obj};
 pub use ply::{parse_ply, write_ply};
+pub use sphere::uv_sphere;
+
+pub use attributes::{Attribute, AttributeValue, Attributes};
 
 use crate::failure::{Failure, Outcome};
 use crate::sample::Aabb;
@@ -39,9 +48,49 @@ use glam::DVec3;
 pub struct Mesh {
     pub positions: Vec<DVec3>,
     pub triangles: Vec<[u32; 3]>,
+    /// Per-vertex values by name, each as long as `positions`.
+    pub attributes: Attributes,
 }
 
 impl Mesh {
+    /// A mesh of positions and triangles without attributes.
+    pub fn new(positions: Vec<DVec3>, triangles: Vec<[u32; 3]>) -> Mesh {
+        Mesh {
+            positions,
+            triangles,
+            attributes: Attributes::new(),
+        }
+    }
+
+    /// The attribute `name`, or a failure that lists the ones the shape has.
+    pub fn attribute(&self, name: &str) -> Outcome<&Attribute> {
+        self.attributes.get(name).ok_or_else(|| {
+            let names: Vec<&str> = self.attributes.keys().map(|k| k.as_str()).collect();
+            let has = if names.is_empty() {
+                "it has no attributes".to_string()
+            } else {
+                format!("it has {}", names.join(", "))
+            };
+            Failure::new(format!(
+                "the shape has no vertex attribute '{name}' ({has})"
+            ))
+        })
+    }
+
+    /// Sets an attribute, which must have one value per vertex.
+    pub fn set_attribute(&mut self, name: &str, values: Attribute) -> Outcome<()> {
+        if values.len() != self.positions.len() {
+            return Err(Failure::new(format!(
+                "attribute '{name}' needs one value per vertex: {} values for {} vertices",
+                values.len(),
+                self.positions.len()
+            )));
+        }
+        values.check_finite(name)?;
+        self.attributes.insert(name.to_string(), values);
+        Ok(())
+    }
+
     /// The box around all vertices; `None` for a mesh without vertices.
     pub fn bounds(&self) -> Option<Aabb> {
         let first = *self.positions.first()?;
@@ -155,6 +204,15 @@ impl Mesh {
             )));
         }
         let n = self.positions.len();
+        for (name, values) in &self.attributes {
+            if values.len() != n {
+                return Err(Failure::new(format!(
+                    "attribute '{name}' has {} values for {n} vertices",
+                    values.len()
+                )));
+            }
+            values.check_finite(name)?;
+        }
         if let Some((i, t)) = self
             .triangles
             .iter()

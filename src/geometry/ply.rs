@@ -1,16 +1,22 @@
-//! Stanford PLY: vertex positions and polygon faces, in ASCII and both binary byte orders.
+//! Stanford PLY: vertex positions, vertex attributes and polygon faces, in ASCII and both
+//! binary byte orders.
 //!
 //! Reading parses the header into elements and typed properties, then reads every element in
-//! order, keeping the `x`, `y`, `z` of `vertex` (any numeric type) and the index list of
-//! `face` (`vertex_indices` or `vertex_index`, any integer types), fanning polygons into
-//! triangles, and stepping over everything else. The one key decision: before a single
+//! order, keeping the `x`, `y`, `z` of `vertex` (any numeric type), every other scalar vertex
+//! property as an attribute, and the index list of `face` (`vertex_indices` or
+//! `vertex_index`, any integer types), fanning polygons into triangles, and stepping over
+//! everything else. `nx ny nz` become the normal `N`; `s t`, `u v` or `texture_u texture_v`
+//! the texture coordinates `uv`; `name_x name_y name_z` a vector attribute `name`; any other
+//! property a float attribute of its own name. The one key decision: before a single
 //! element is read, its declared count is checked against what the rest of the file can hold
 //! (each element needs at least the bytes of its fixed-size properties, or one token per
 //! property in ASCII), and so is every list length; a lying header is a `Failure` naming the
 //! header line or byte offset, never a huge allocation. Writing produces binary little endian
-//! with double coordinates, so a saved mesh reads back exactly.
+//! with double coordinates and attributes under the same names, so a saved mesh reads back
+//! exactly.
 
 use super::Mesh;
+use super::attributes::{Attribute, NORMAL, TEXTURE};
 use crate::failure::{Failure, Outcome};
 use glam::DVec3;
 
@@ -264,38 +270,125 @@ fn body_first_line(bytes: &[u8], body: usize) -> usize {
     bytes[..body].iter().filter(|&&b| b == b'\n').count() + 1
 }
 
-fn read_vertices(source: &mut Source, element: &Element, mesh: &mut Mesh) -> Outcome<()> {
-    let find = |axis: &str| {
+/// Where a vertex property's values go.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Slot {
+    Position(usize),
+    /// Component `1` of vector attribute `0` (an index into the vector names).
+    Vector(usize, usize),
+    Float(usize),
+    Skip,
+}
+
+/// The vector attributes PLY spells as three properties, and how.
+const VECTOR_SPELLINGS: &[(&str, [&str; 3])] = &[
+    (NORMAL, ["nx", "ny", "nz"]),
+    (TEXTURE, ["s", "t", "texture_w"]),
+    (TEXTURE, ["u", "v", "texture_w"]),
+    (TEXTURE, ["texture_u", "texture_v", "texture_w"]),
+    (TEXTURE, ["texture_s", "texture_t", "texture_w"]),
+];
+
+/// What each vertex property feeds, and the names of the vector and float attributes.
+fn vertex_slots(element: &Element) -> Outcome<(Vec<Slot>, Vec<String>, Vec<String>)> {
+    let scalar = |name: &str| {
         element
             .properties
             .iter()
-            .position(|p| p.name == axis && matches!(p.kind, Kind::Scalar(_)))
+            .position(|p| p.name == name && matches!(p.kind, Kind::Scalar(_)))
     };
-    let (Some(x), Some(y), Some(z)) = (find("x"), find("y"), find("z")) else {
+    let (Some(x), Some(y), Some(z)) = (scalar("x"), scalar("y"), scalar("z")) else {
         return Err(header_error(
             element.line,
             "the vertex element needs x, y and z properties".into(),
         ));
     };
-    mesh.positions.reserve(element.count as usize);
+    let mut slots = vec![Slot::Skip; element.properties.len()];
+    for (axis, index) in [x, y, z].into_iter().enumerate() {
+        slots[index] = Slot::Position(axis);
+    }
+    let mut vectors: Vec<String> = Vec::new();
+    let mut claim = |slots: &mut Vec<Slot>, name: String, indices: [Option<usize>; 3]| {
+        if indices[..2]
+            .iter()
+            .any(|i| i.is_none_or(|i| slots[i] != Slot::Skip))
+            || vectors.contains(&name)
+        {
+            return;
+        }
+        for (axis, index) in indices.into_iter().enumerate() {
+            if let Some(index) = index.filter(|&i| slots[i] == Slot::Skip) {
+                slots[index] = Slot::Vector(vectors.len(), axis);
+            }
+        }
+        vectors.push(name);
+    };
+    for (name, spelling) in VECTOR_SPELLINGS {
+        let indices = spelling.map(scalar);
+        // Normals need all three components; texture coordinates two.
+        if *name == NORMAL && indices[2].is_none() {
+            continue;
+        }
+        claim(&mut slots, name.to_string(), indices);
+    }
+    for property in &element.properties {
+        if let Some(stem) = property.name.strip_suffix("_x") {
+            let indices = ["_x", "_y", "_z"].map(|axis| scalar(&format!("{stem}{axis}")));
+            if indices.iter().all(|i| i.is_some()) {
+                claim(&mut slots, stem.to_string(), indices);
+            }
+        }
+    }
+    let mut floats = Vec::new();
+    for (slot, property) in slots.iter_mut().zip(&element.properties) {
+        if *slot == Slot::Skip && matches!(property.kind, Kind::Scalar(_)) {
+            *slot = Slot::Float(floats.len());
+            floats.push(property.name.clone());
+        }
+    }
+    Ok((slots, vectors, floats))
+}
+
+fn read_vertices(source: &mut Source, element: &Element, mesh: &mut Mesh) -> Outcome<()> {
+    let (slots, vector_names, float_names) = vertex_slots(element)?;
+    let count = element.count as usize;
+    mesh.positions.reserve(count);
+    let mut vectors = vec![Vec::with_capacity(count); vector_names.len()];
+    let mut floats = vec![Vec::with_capacity(count); float_names.len()];
     let mut skipped = Vec::new();
     for _ in 0..element.count {
         let mut p = DVec3::ZERO;
-        for (index, property) in element.properties.iter().enumerate() {
+        for v in vectors.iter_mut() {
+            v.push(DVec3::ZERO);
+        }
+        for (property, slot) in element.properties.iter().zip(&slots) {
             let Kind::Scalar(scalar) = property.kind else {
                 skip(source, &property.kind, &mut skipped)?;
                 continue;
             };
             let value = source.scalar(scalar)?;
-            let axis = [x, y, z].iter().position(|&a| a == index);
-            if let Some(axis) = axis {
-                if !value.is_finite() {
-                    return Err(source.error(format!("vertex coordinate {value} is not finite")));
+            if !value.is_finite() {
+                return Err(source.error(format!(
+                    "vertex property '{}' is {value}, not a finite number",
+                    property.name
+                )));
+            }
+            match *slot {
+                Slot::Position(axis) => p[axis] = value,
+                Slot::Vector(index, axis) => {
+                    vectors[index].last_mut().expect("pushed above")[axis] = value
                 }
-                p[axis] = value;
+                Slot::Float(index) => floats[index].push(value),
+                Slot::Skip => {}
             }
         }
         mesh.positions.push(p);
+    }
+    for (name, values) in vector_names.into_iter().zip(vectors) {
+        mesh.attributes.insert(name, Attribute::Vector(values));
+    }
+    for (name, values) in float_names.into_iter().zip(floats) {
+        mesh.attributes.insert(name, Attribute::Float(values));
     }
     Ok(())
 }
@@ -493,22 +586,62 @@ impl Cursor<'_> {
     }
 }
 
-/// The mesh as binary little-endian PLY with double coordinates and uint indices.
+/// The mesh as binary little-endian PLY with double coordinates and attributes and uint
+/// indices.
 pub fn write_ply(mesh: &Mesh) -> Outcome<Vec<u8>> {
     mesh.validate()?;
-    let header = format!(
+    let mut header = format!(
         "ply\nformat binary_little_endian 1.0\ncomment written by felt\n\
-         element vertex {}\nproperty double x\nproperty double y\nproperty double z\n\
-         element face {}\nproperty list uchar uint vertex_indices\nend_header\n",
-        mesh.positions.len(),
-        mesh.triangles.len()
+         element vertex {}\nproperty double x\nproperty double y\nproperty double z\n",
+        mesh.positions.len()
     );
-    let mut out =
-        Vec::with_capacity(header.len() + mesh.positions.len() * 24 + mesh.triangles.len() * 13);
+    for (name, values) in &mesh.attributes {
+        let names: Vec<String> = match (name.as_str(), values) {
+            (NORMAL, Attribute::Vector(_)) => ["nx", "ny", "nz"].map(String::from).to_vec(),
+            (TEXTURE, Attribute::Vector(_)) => ["s", "t", "texture_w"].map(String::from).to_vec(),
+            (_, Attribute::Vector(_)) => ["_x", "_y", "_z"].map(|a| format!("{name}{a}")).to_vec(),
+            (_, Attribute::Float(_)) => vec![name.clone()],
+        };
+        for property in names {
+            if property.is_empty() || property.contains(|c: char| c.is_ascii_whitespace()) {
+                return Err(Failure::new(format!(
+                    "attribute name '{name}' cannot be a PLY property name"
+                ))
+                .with_help("PLY property names are single words"));
+            }
+            header.push_str(&format!("property double {property}\n"));
+        }
+    }
+    header.push_str(&format!(
+        "element face {}\nproperty list uchar uint vertex_indices\nend_header\n",
+        mesh.triangles.len()
+    ));
+    let per_vertex = 24
+        + mesh
+            .attributes
+            .values()
+            .map(|a| match a {
+                Attribute::Float(_) => 8,
+                Attribute::Vector(_) => 24,
+            })
+            .sum::<usize>();
+    let mut out = Vec::with_capacity(
+        header.len() + mesh.positions.len() * per_vertex + mesh.triangles.len() * 13,
+    );
     out.extend_from_slice(header.as_bytes());
-    for p in &mesh.positions {
+    for (i, p) in mesh.positions.iter().enumerate() {
         for c in [p.x, p.y, p.z] {
             out.extend_from_slice(&c.to_le_bytes());
+        }
+        for values in mesh.attributes.values() {
+            match values {
+                Attribute::Float(v) => out.extend_from_slice(&v[i].to_le_bytes()),
+                Attribute::Vector(v) => {
+                    for c in v[i].to_array() {
+                        out.extend_from_slice(&c.to_le_bytes());
+                    }
+                }
+            }
         }
     }
     for t in &mesh.triangles {

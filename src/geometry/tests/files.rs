@@ -97,12 +97,18 @@ fn tetra_expected() -> Mesh {
             DVec3::new(0.0, 0.0, 1.0),
         ],
         triangles: vec![[0, 2, 1], [0, 1, 3], [0, 3, 2]],
+        attributes: Default::default(),
     }
 }
 
 #[test]
 fn ply_ascii_reads_what_it_needs_and_steps_over_the_rest() {
-    let mesh = parse_ply(TETRA_ASCII.as_bytes()).unwrap();
+    let mut mesh = parse_ply(TETRA_ASCII.as_bytes()).unwrap();
+    // Scalar vertex properties other than x, y, z are kept as attributes.
+    assert_eq!(
+        mesh.attributes.remove("red"),
+        Some(Attribute::Float(vec![255.0, 0.0, 7.0, 9.0]))
+    );
     assert_eq!(mesh, tetra_expected());
 }
 
@@ -130,7 +136,12 @@ fn tetra_big_endian() -> Vec<u8> {
 
 #[test]
 fn ply_binary_big_endian_reads_any_integer_types() {
-    assert_eq!(parse_ply(&tetra_big_endian()).unwrap(), tetra_expected());
+    let mut mesh = parse_ply(&tetra_big_endian()).unwrap();
+    assert_eq!(
+        mesh.attributes.remove("flag"),
+        Some(Attribute::Float(vec![1.0; 4]))
+    );
+    assert_eq!(mesh, tetra_expected());
 }
 
 #[test]

@@ -1,11 +1,14 @@
 //! Tests of the geometry module: mesh measures against closed forms (`measures`), marching
 //! cubes on shapes with known volume and topology (`marching`), signed distance against closed
 //! forms and brute force (`distance`), components (`components`), file round trips and exact
-//! parses (`files`), and damaged files (`robustness`).
+//! parses (`files`), damaged files (`robustness`), attributes in files and on generated
+//! shapes (`attributes`), and cuts by several knives (`knives`).
 
+mod attributes;
 mod components;
 mod distance;
 mod files;
+mod knives;
 mod marching;
 mod measures;
 mod robustness;
@@ -60,10 +63,7 @@ fn box_mesh(centre: DVec3, half: DVec3) -> Mesh {
         .iter()
         .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
         .collect();
-    Mesh {
-        positions,
-        triangles,
-    }
+    Mesh::new(positions, triangles)
 }
 
 /// A reproducible number in [0, 1) from a counter.

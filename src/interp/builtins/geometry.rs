@@ -91,19 +91,46 @@ pub fn register(r: &mut Registry) {
     );
     r.add(
         "geometry",
-        &["pieces(shape s) -> shape[]"],
-        "the connected components of a mesh",
+        &[
+            "pieces(shape s) -> shape[]",
+            "pieces(shape s, float minvolume) -> shape[]",
+        ],
+        "the connected components of a mesh; with minvolume, only those enclosing at least that \
+         volume (slivers dropped)",
         |_, a| {
             let Value::Shape(mesh) = a.get(0)? else {
                 return Err(Failure::new("expected a shape"));
             };
-            let parts: Vec<Value> = geometry::pieces(mesh)
-                .into_iter()
-                .map(|m| Value::Shape(Rc::new(m)))
-                .collect();
-            Ok(Value::Array(
-                Rc::new(parts),
-                crate::check::types::Type::Shape,
+            let parts = match a.opt_float(1)? {
+                None => geometry::pieces(mesh),
+                Some(least) => geometry::pieces_above(mesh, minimum_volume(least)?).0,
+            };
+            Ok(shapes(parts))
+        },
+    );
+    r.add(
+        "geometry",
+        &["cutpieces(scalarfield l0, scalarfield[] knives, domain d, float minvolume?) -> shape[]"],
+        "the solid l0 cut by every knife into the regions of their arrangement, each meshed over \
+         d's cells as min(l0, ±knife...); pieces below minvolume (default: 8 cells' volume) are \
+         dropped as slivers",
+        |_, a| {
+            let l0 = a.get("l0")?.as_field()?;
+            let knives = a
+                .get("knives")?
+                .as_array()?
+                .iter()
+                .map(|k| k.as_field())
+                .collect::<Outcome<Vec<_>>>()?;
+            let Value::Domain(d) = a.get("d")? else {
+                return Err(Failure::new("expected a domain"));
+            };
+            let least = match a.opt_float("minvolume")? {
+                Some(v) => minimum_volume(v)?,
+                None => 8.0 * d.cell.x * d.cell.y * d.cell.z,
+            };
+            Ok(shapes(
+                geometry::knives::cut(&l0, &knives, d, least)?.pieces,
             ))
         },
     );
@@ -131,6 +158,24 @@ pub fn register(r: &mut Registry) {
         "the number of triangles of a mesh",
         |_, a| Ok(Value::Int(mesh_of(a.get(0)?)?.triangles.len() as i64)),
     );
+}
+
+fn shapes(meshes: Vec<Mesh>) -> Value {
+    let parts = meshes
+        .into_iter()
+        .map(|m| Value::Shape(Rc::new(m)))
+        .collect();
+    Value::Array(Rc::new(parts), crate::check::types::Type::Shape)
+}
+
+fn minimum_volume(v: f64) -> Outcome<f64> {
+    if v >= 0.0 && v.is_finite() {
+        Ok(v)
+    } else {
+        Err(Failure::new(format!(
+            "the minimum piece volume must be zero or positive, found {v}"
+        )))
+    }
 }
 
 fn mesh_of(v: &Value) -> Outcome<&Mesh> {

@@ -1,6 +1,7 @@
 //! The builtins, grouped by capability. Each group registers its entries in the one registry;
 //! adding a capability means adding a group here, nothing else.
 
+mod attributes;
 mod core;
 mod fields;
 pub mod format;
@@ -9,6 +10,7 @@ pub mod grids;
 mod math;
 mod modeling;
 mod particles;
+mod nacelle;
 mod rendering;
 mod simulation;
 
@@ -22,6 +24,8 @@ pub fn register_all(r: &mut Registry) {
     modeling::register(r);
     rendering::register(r);
     geometry::register(r);
+    nacelle::register(r);
+    attributes::register(r);
     simulation::register(r);
     particles::register(r);
 }

@@ -1,0 +1,132 @@
+//! Cutting a solid with several knives (FELT chapter 5) into the pieces of their arrangement.
+//!
+//! The chapter's cut multiplies the solid's level set by each knife in turn, so after a few
+//! knives every piece is a product of factors; where a region is thinner than a cell the
+//! product's zero set breaks up into many small shells (five planes through a sphere gave 77
+//! "pieces" at 128 cells, where the planes make at most 26 regions). Here each region of the
+//! arrangement is the intersection `min(l0, s₁k₁, …, sₙkₙ)` for its sign vector `s`, a level
+//! set with the region's own faces and no products. The one key decision: only the sign
+//! vectors that occur at some cell centre inside the solid are meshed, each over the box of
+//! its cells and one cell around — the sampling that marching cubes would see anyway — so the
+//! work grows with the number of regions, not with the 2ⁿ sign vectors; and components whose
+//! volume is below a stated minimum (slivers no grid of that cell size resolves) are dropped
+//! and counted, never silently kept as extra pieces.
+
+use super::{Mesh, marching_cubes, pieces_above};
+use crate::failure::{Failure, Outcome};
+use crate::field::{CompiledField, Field, sample_points};
+use crate::grid::domain::Domain;
+use crate::sample::Lattice;
+use glam::DVec3;
+use std::collections::BTreeMap;
+
+/// The most knives one cut takes: a region is named by a sign vector in a `u64`.
+pub const MAX_KNIVES: usize = 63;
+
+/// The pieces of a cut, and what was dropped as slivers.
+pub struct Cut {
+    /// One closed mesh per piece, ordered by the sign vector of its region (bit `i` set where
+    /// knife `i` is positive), then by the order `pieces` gives.
+    pub pieces: Vec<Mesh>,
+    /// The components below the minimum volume that were left out, and their total volume.
+    pub dropped: usize,
+    pub dropped_volume: f64,
+}
+
+/// Cuts the solid `l0` (positive inside) with `knives` over `domain`'s cells.
+pub fn cut(l0: &Field, knives: &[Field], domain: &Domain, min_volume: f64) -> Outcome<Cut> {
+    if knives.len() > MAX_KNIVES {
+        return Err(Failure::new(format!(
+            "a cut takes at most {MAX_KNIVES} knives, found {}",
+            knives.len()
+        )));
+    }
+    if !(min_volume >= 0.0 && min_volume.is_finite()) {
+        return Err(Failure::new(format!(
+            "the minimum piece volume must be zero or positive, found {min_volume}"
+        )));
+    }
+    let Some([nx, ny, nz]) = domain.resolution else {
+        return Err(Failure::new("cutting needs a domain with a cell size"));
+    };
+    let boxes = regions(l0, knives, domain, [nx, ny, nz])?;
+    let mut out = Cut {
+        pieces: Vec::new(),
+        dropped: 0,
+        dropped_volume: 0.0,
+    };
+    for (code, (lo, hi)) in boxes {
+        let mut region = l0.clone();
+        for (i, knife) in knives.iter().enumerate() {
+            let side = if (code >> i) & 1 == 1 {
+                knife.clone()
+            } else {
+                knife.neg()
+            };
+            region = Field::min(&region, &side)?;
+        }
+        let sampler = CompiledField::prepared(&region)?;
+        let around = sub_domain(domain, lo, hi, [nx, ny, nz]);
+        let (kept, dropped, volume) = pieces_above(&marching_cubes(&sampler, &around)?, min_volume);
+        out.pieces.extend(kept);
+        out.dropped += dropped;
+        out.dropped_volume += volume;
+    }
+    Ok(out)
+}
+
+/// The sign vectors met at cell centres inside `l0`, each with the box of cell indices where
+/// it occurs.
+fn regions(
+    l0: &Field,
+    knives: &[Field],
+    domain: &Domain,
+    [nx, ny, nz]: [usize; 3],
+) -> Outcome<BTreeMap<u64, ([usize; 3], [usize; 3])>> {
+    let mut boxes: BTreeMap<u64, ([usize; 3], [usize; 3])> = BTreeMap::new();
+    let mut slice = Vec::with_capacity(nx * ny);
+    for k in 0..nz {
+        slice.clear();
+        for j in 0..ny {
+            for i in 0..nx {
+                slice.push(domain.cell_center(i, j, k));
+            }
+        }
+        let inside = sample_points(l0, &slice)?;
+        let mut codes = vec![0u64; slice.len()];
+        for (bit, knife) in knives.iter().enumerate() {
+            for (code, value) in codes.iter_mut().zip(sample_points(knife, &slice)?) {
+                if value >= 0.0 {
+                    *code |= 1 << bit;
+                }
+            }
+        }
+        for (index, (&code, &solid)) in codes.iter().zip(&inside).enumerate() {
+            if solid < 0.0 || solid.is_nan() {
+                continue;
+            }
+            let cell = [index % nx, index / nx, k];
+            let entry = boxes.entry(code).or_insert((cell, cell));
+            for axis in 0..3 {
+                entry.0[axis] = entry.0[axis].min(cell[axis]);
+                entry.1[axis] = entry.1[axis].max(cell[axis]);
+            }
+        }
+    }
+    Ok(boxes)
+}
+
+/// The cells `lo..=hi` of `domain` and one more on every side (within the domain), as a
+/// domain whose cell centres are `domain`'s.
+fn sub_domain(domain: &Domain, lo: [usize; 3], hi: [usize; 3], counts: [usize; 3]) -> Domain {
+    let first = lo.map(|i| i.saturating_sub(1));
+    let last: [usize; 3] = std::array::from_fn(|a| (hi[a] + 1).min(counts[a] - 1));
+    let corner = DVec3::new(first[0] as f64, first[1] as f64, first[2] as f64) * domain.cell;
+    Domain::from_lattice(&Lattice {
+        origin: domain.local_to_world(corner),
+        rotation: domain.rotation,
+        cell: domain.cell,
+        counts: std::array::from_fn(|a| last[a] - first[a] + 1),
+        extrapolates: false,
+    })
+}
