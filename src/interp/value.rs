@@ -33,6 +33,8 @@ pub enum Value {
     Shape(Rc<Mesh>),
     Camera(Rc<Camera>),
     Light(Rc<Light>),
+    /// One state of a cloud automaton (`cloudca`, `cloudstep`).
+    CloudSim(Rc<crate::interp::builtins::clouds::CloudVar>),
     /// Elements and the element type (needed for `{}` and for conversions).
     Array(Rc<Vec<Value>>, Type),
 }
@@ -68,6 +70,7 @@ impl Value {
             Value::Shape(_) => Type::Shape,
             Value::Camera(_) => Type::Camera,
             Value::Light(_) => Type::Light,
+            Value::CloudSim(_) => Type::CloudSim,
             Value::Array(_, elem) => Type::array_of(elem.clone()),
         }
     }
@@ -310,6 +313,7 @@ impl fmt::Display for Value {
                     format_vector(l.color)
                 ),
             },
+            Value::CloudSim(c) => write!(f, "{}", c.state),
             Value::Array(items, _) => {
                 f.write_str("{")?;
                 for (i, item) in items.iter().enumerate() {

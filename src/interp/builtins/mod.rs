@@ -1,6 +1,7 @@
 //! The builtins, grouped by capability. Each group registers its entries in the one registry;
 //! adding a capability means adding a group here, nothing else.
 
+pub mod clouds;
 mod core;
 mod fields;
 pub mod format;
@@ -22,4 +23,5 @@ pub fn register_all(r: &mut Registry) {
     rendering::register(r);
     geometry::register(r);
     simulation::register(r);
+    clouds::register(r);
 }
