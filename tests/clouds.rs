@@ -7,8 +7,8 @@ mod common;
 use felt::cloud::{CloudState, Probabilities, Probability, SmoothedCloud, Smoothing, Wind};
 use felt::grid::domain::Domain;
 use felt::render::Light;
-use felt::render::transmittance::light_columns;
 use felt::render::TransmissivityMethod;
+use felt::render::transmittance::light_columns;
 use felt::sample::{Aabb, FnField};
 use glam::DVec3;
 
@@ -16,7 +16,13 @@ use glam::DVec3;
 fn exit(p: DVec3, u: DVec3, lengths: DVec3) -> f64 {
     (0..3)
         .filter(|&a| u[a] != 0.0)
-        .map(|a| if u[a] > 0.0 { (lengths[a] - p[a]) / u[a] } else { -p[a] / u[a] })
+        .map(|a| {
+            if u[a] > 0.0 {
+                (lengths[a] - p[a]) / u[a]
+            } else {
+                -p[a] / u[a]
+            }
+        })
         .fold(f64::INFINITY, f64::min)
 }
 
@@ -32,7 +38,14 @@ fn the_sweep_through_a_homogeneous_slab_is_beer_lambert() {
         .with_bounds(Aabb::new(DVec3::ZERO, lengths));
     let travel = DVec3::new(0.4, -1.0, 0.25).normalize();
     let light = Light::distant(travel, DVec3::ONE).unwrap();
-    let grid = light_columns(&slab, &light, &domain, TransmissivityMethod::Sweep, f64::INFINITY).unwrap();
+    let grid = light_columns(
+        &slab,
+        &light,
+        &domain,
+        TransmissivityMethod::Sweep,
+        f64::INFINITY,
+    )
+    .unwrap();
     let sigma = 3.0;
     let [nx, ny, nz] = domain.resolution.unwrap();
     let (mut worst_inside, mut worst) = (0f64, 0f64);
@@ -41,7 +54,9 @@ fn the_sweep_through_a_homogeneous_slab_is_beer_lambert() {
             for i in 0..nx {
                 let p = domain.cell_center(i, j, k);
                 let d = exit(p, -travel, lengths);
-                let error = ((-sigma * grid.columns()[i + nx * (j + ny * k)] as f64).exp() - (-sigma * d).exp()).abs();
+                let error = ((-sigma * grid.columns()[i + nx * (j + ny * k)] as f64).exp()
+                    - (-sigma * d).exp())
+                .abs();
                 worst = worst.max(error);
                 // Lines that leave through the top, at least two cells from the side faces all
                 // the way: there every upstream read interpolates a column that is linear
@@ -83,7 +98,15 @@ fn grown_cloud(n: [usize; 3], cell: f64) -> (Domain, SmoothedCloud) {
     for _ in 0..10 {
         s = s.step(&p, &Wind::CALM);
     }
-    let density = SmoothedCloud::new(domain.clone(), s.planes, s.cloud_frames(2), Smoothing { radius: 1, window: 1 });
+    let density = SmoothedCloud::new(
+        domain.clone(),
+        s.planes,
+        s.cloud_frames(2),
+        Smoothing {
+            radius: 1,
+            window: 1,
+        },
+    );
     (domain, density)
 }
 
@@ -96,8 +119,22 @@ fn the_sweep_agrees_with_the_marched_light_cache_on_a_cloud() {
     let (domain, density) = grown_cloud([64, 16, 64], cell);
     let light = Light::distant(DVec3::new(0.5, -1.0, -0.3), DVec3::ONE).unwrap();
     let kappa = 8.0;
-    let swept = light_columns(&density, &light, &domain, TransmissivityMethod::Sweep, f64::INFINITY).unwrap();
-    let marched = light_columns(&density, &light, &domain, TransmissivityMethod::March, f64::INFINITY).unwrap();
+    let swept = light_columns(
+        &density,
+        &light,
+        &domain,
+        TransmissivityMethod::Sweep,
+        f64::INFINITY,
+    )
+    .unwrap();
+    let marched = light_columns(
+        &density,
+        &light,
+        &domain,
+        TransmissivityMethod::March,
+        f64::INFINITY,
+    )
+    .unwrap();
     let (mut sum, mut worst) = (0.0, 0f64);
     for (a, b) in swept.columns().iter().zip(marched.columns()) {
         let d = ((-kappa * *a as f64).exp() - (-kappa * *b as f64).exp()).abs();
@@ -105,7 +142,11 @@ fn the_sweep_agrees_with_the_marched_light_cache_on_a_cloud() {
         worst = worst.max(d);
     }
     let mean = sum / swept.columns().len() as f64;
-    let lit: f64 = marched.columns().iter().map(|c| (-kappa * *c as f64).exp()).sum::<f64>()
+    let lit: f64 = marched
+        .columns()
+        .iter()
+        .map(|c| (-kappa * *c as f64).exp())
+        .sum::<f64>()
         / marched.columns().len() as f64;
     eprintln!("sweep vs marched cache: mean |ΔT| {mean:.2e}, worst {worst:.3}, mean T {lit:.3}");
     // The cloud must shadow itself for the comparison to mean anything.
@@ -143,7 +184,13 @@ fn rendering_a_frame_steps_to_it_but_smooths_and_lights_only_it() {
     let row = |kind: &str| {
         rows.iter()
             .filter(|e| e.kind == kind)
-            .map(|e| (e.instances, e.bricks_total, e.bricks_filled + e.bricks_skipped))
+            .map(|e| {
+                (
+                    e.instances,
+                    e.bricks_total,
+                    e.bricks_filled + e.bricks_skipped,
+                )
+            })
             .fold((0, 0, 0), |a, b| (a.0 + b.0, a.1 + b.1, a.2 + b.2))
     };
     assert_eq!(row("cloudstep").0, 12, "{rows:?}");
@@ -181,6 +228,10 @@ fn bad_cloud_inputs_are_diagnostics() {
     ] {
         let outcome = common::run_source("bad.felt", source);
         assert!(!outcome.ok, "{source}");
-        assert!(outcome.rendered.contains(message), "{source}: {}", outcome.rendered);
+        assert!(
+            outcome.rendered.contains(message),
+            "{source}: {}",
+            outcome.rendered
+        );
     }
 }

@@ -46,7 +46,11 @@ impl Wind {
 
     /// Speed of layer `j` of `ny`, per axis (x, z).
     pub fn speed(&self, j: usize, ny: usize) -> [f64; 2] {
-        let t = if ny > 1 { j as f64 / (ny - 1) as f64 } else { 0.0 };
+        let t = if ny > 1 {
+            j as f64 / (ny - 1) as f64
+        } else {
+            0.0
+        };
         [0, 1].map(|a| self.bottom[a] + (self.top[a] - self.bottom[a]) * t)
     }
 
@@ -77,7 +81,12 @@ pub struct CloudState {
 impl CloudState {
     /// The initial state: each bit set with its probability (`hum` from `p.hum`, `act` from
     /// `p.act`, `cld` from `p.ext`, read here as the initial cloud probability).
-    pub fn initial(domain: Domain, resolution: [usize; 3], seed: u64, p: &Probabilities) -> CloudState {
+    pub fn initial(
+        domain: Domain,
+        resolution: [usize; 3],
+        seed: u64,
+        p: &Probabilities,
+    ) -> CloudState {
         let planes = Planes::new(resolution);
         let mut hum = vec![0u64; planes.len()];
         let mut act = vec![0u64; planes.len()];
@@ -94,8 +103,11 @@ impl CloudState {
                         let at = j * words + w;
                         let word = planes.row(j, k) * words + w;
                         let mask = planes.mask(w);
-                        let candidates = (p.hum.nonzero(word) | p.act.nonzero(word) | p.ext.nonzero(word)) & mask;
-                        let (h, a, c) = draws(&planes, seed, random::INITIAL, j, k, w, candidates, p);
+                        let candidates =
+                            (p.hum.nonzero(word) | p.act.nonzero(word) | p.ext.nonzero(word))
+                                & mask;
+                        let (h, a, c) =
+                            draws(&planes, seed, random::INITIAL, j, k, w, candidates, p);
                         hum[at] = h & p.hum.nonzero(word);
                         act[at] = a & p.act.nonzero(word);
                         cld[at] = c & p.ext.nonzero(word);
@@ -171,7 +183,8 @@ impl CloudState {
                             | (!act1 & p.act.nonzero(word))
                             | (cld1 & p.ext.nonzero(word)))
                             & planes.mask(w);
-                        let (rh, ra, re) = draws(&planes, self.seed, self.step, j, k, w, candidates, p);
+                        let (rh, ra, re) =
+                            draws(&planes, self.seed, self.step, j, k, w, candidates, p);
                         let at = j * words + w;
                         hum[at] = hum1 | rh;
                         act[at] = act1 | ra;
@@ -261,21 +274,28 @@ fn advect(planes: &Planes, plane: &[u64], wind: &Wind, step: u64) -> Vec<u64> {
     let (words, ny, nz) = (planes.words, planes.ny, planes.nz);
     let shifts: Vec<[i64; 2]> = (0..ny).map(|j| wind.shift(j, ny, step)).collect();
     let mut out = vec![0u64; plane.len()];
-    out.par_chunks_mut(ny * words).enumerate().for_each(|(k, slice)| {
-        for (j, [sx, sz]) in shifts.iter().copied().enumerate() {
-            let from = k as i64 - sz;
-            let from = if wind.wrap {
-                Some(from.rem_euclid(nz as i64) as usize)
-            } else if (0..nz as i64).contains(&from) {
-                Some(from as usize)
-            } else {
-                None
-            };
-            let Some(from) = from else { continue };
-            let r = planes.row(j, from) * words;
-            planes.shift_row(&plane[r..r + words], sx, wind.wrap, &mut slice[j * words..(j + 1) * words]);
-        }
-    });
+    out.par_chunks_mut(ny * words)
+        .enumerate()
+        .for_each(|(k, slice)| {
+            for (j, [sx, sz]) in shifts.iter().copied().enumerate() {
+                let from = k as i64 - sz;
+                let from = if wind.wrap {
+                    Some(from.rem_euclid(nz as i64) as usize)
+                } else if (0..nz as i64).contains(&from) {
+                    Some(from as usize)
+                } else {
+                    None
+                };
+                let Some(from) = from else { continue };
+                let r = planes.row(j, from) * words;
+                planes.shift_row(
+                    &plane[r..r + words],
+                    sx,
+                    wind.wrap,
+                    &mut slice[j * words..(j + 1) * words],
+                );
+            }
+        });
     out
 }
 

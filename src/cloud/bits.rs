@@ -44,7 +44,11 @@ impl Planes {
     /// The valid bits of word `w` of a row.
     pub fn mask(&self, w: usize) -> u64 {
         let used = self.nx - 64 * w;
-        if used >= 64 { u64::MAX } else { (1u64 << used) - 1 }
+        if used >= 64 {
+            u64::MAX
+        } else {
+            (1u64 << used) - 1
+        }
     }
 
     pub fn get(&self, plane: &[u64], i: usize, j: usize, k: usize) -> bool {
@@ -102,7 +106,13 @@ fn shift_clipped(row: &[u64], s: i64, out: &mut [u64]) {
     let (q, b) = (s.div_euclid(64), s.rem_euclid(64) as u32);
     for (w, o) in out.iter_mut().enumerate() {
         // Bit x of word w comes from bit x − s: word w − q (low part) and w − q − 1.
-        let at = |i: i64| if (0..n).contains(&i) { row[i as usize] } else { 0 };
+        let at = |i: i64| {
+            if (0..n).contains(&i) {
+                row[i as usize]
+            } else {
+                0
+            }
+        };
         let src = w as i64 - q;
         *o = if b == 0 {
             at(src)

@@ -23,7 +23,10 @@ pub enum Probability {
     Uniform(u16),
     /// Per cell, index `i + nx·(j + ny·k)`, with `nonzero` the plane of cells where the
     /// threshold is above zero.
-    Cells { thresholds: Vec<u16>, nonzero: Vec<u64> },
+    Cells {
+        thresholds: Vec<u16>,
+        nonzero: Vec<u64>,
+    },
 }
 
 impl Probability {
@@ -121,7 +124,9 @@ impl Probabilities {
 /// The source's ellipsoid profile: 1 at `center`, falling linearly along each ray from it to
 /// 0 on the surface `Σ ((p − c)/r)² = 1`, and 0 outside.
 pub fn ellipsoid_profile(p: [f64; 3], center: [f64; 3], radii: [f64; 3]) -> f64 {
-    let s: f64 = (0..3).map(|a| ((p[a] - center[a]) / radii[a]).powi(2)).sum();
+    let s: f64 = (0..3)
+        .map(|a| ((p[a] - center[a]) / radii[a]).powi(2))
+        .sum();
     (1.0 - s.sqrt()).max(0.0)
 }
 

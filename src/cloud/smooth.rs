@@ -94,7 +94,13 @@ impl SmoothedCloud {
         let base = &plane[row * words..(row + 1) * words];
         let lo = i as i64 - r;
         let bits = 2 * r + 1;
-        let read = |w: i64| if (0..words as i64).contains(&w) { base[w as usize] } else { 0 };
+        let read = |w: i64| {
+            if (0..words as i64).contains(&w) {
+                base[w as usize]
+            } else {
+                0
+            }
+        };
         let (w, b) = (lo.div_euclid(64), lo.rem_euclid(64) as u32);
         let mut v = read(w) >> b;
         if b != 0 {
@@ -148,7 +154,8 @@ impl SmoothedCloud {
                         let first = (64 * w) as i64;
                         let from = (lo[0] - first).clamp(0, 63) as u32;
                         let to = (hi[0] - first + 1).clamp(0, 64) as u32;
-                        let mask = if to >= 64 { u64::MAX } else { (1u64 << to) - 1 } & !((1u64 << from) - 1);
+                        let mask = if to >= 64 { u64::MAX } else { (1u64 << to) - 1 }
+                            & !((1u64 << from) - 1);
                         if frame[row + w] & mask != 0 {
                             return true;
                         }
@@ -178,7 +185,13 @@ impl SmoothedCloud {
     /// `i + nx·(j + ny·k)` within the box), separably: the windows along x per frame, then
     /// the weights along y, then along z. Every partial sum is a whole number, so the result
     /// equals `at_cell`'s bit for bit.
-    pub fn fill_box(&self, lo: [usize; 3], hi: [usize; 3], out: &mut Vec<f64>, scratch: &mut Vec<f64>) {
+    pub fn fill_box(
+        &self,
+        lo: [usize; 3],
+        hi: [usize; 3],
+        out: &mut Vec<f64>,
+        scratch: &mut Vec<f64>,
+    ) {
         let p = &self.planes;
         let r = self.radius;
         let n = [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]];
@@ -317,9 +330,21 @@ impl FieldSampler for SmoothedCloud {
         let mut hi = [i64::MIN; 3];
         for n in 0..8 {
             let corner = DVec3::new(
-                if n & 1 == 0 { region.min.x } else { region.max.x },
-                if n & 2 == 0 { region.min.y } else { region.max.y },
-                if n & 4 == 0 { region.min.z } else { region.max.z },
+                if n & 1 == 0 {
+                    region.min.x
+                } else {
+                    region.max.x
+                },
+                if n & 2 == 0 {
+                    region.min.y
+                } else {
+                    region.max.y
+                },
+                if n & 4 == 0 {
+                    region.min.z
+                } else {
+                    region.max.z
+                },
             );
             let c = self.domain.world_to_local(corner) / self.domain.cell;
             for a in 0..3 {

@@ -91,8 +91,15 @@ fn growth_rules_match_the_source_for_every_state_and_neighbourhood() {
             // Eq. 2.4: any of the 11 source neighbours; the 12th offset never counts.
             let f = (0..source.len()).any(|b| pattern >> b & 1 == 1);
             let expected = (hum && !act, !act && hum && f, cld || act);
-            let got = (get(&next, 0, centre), get(&next, 1, centre), get(&next, 2, centre));
-            assert_eq!(got, expected, "pattern {pattern:012b}, hum {hum} act {act} cld {cld}");
+            let got = (
+                get(&next, 0, centre),
+                get(&next, 1, centre),
+                get(&next, 2, centre),
+            );
+            assert_eq!(
+                got, expected,
+                "pattern {pattern:012b}, hum {hum} act {act} cld {cld}"
+            );
         }
     }
 }
@@ -113,7 +120,10 @@ fn without_probabilities_the_rules_are_deterministic_and_clouds_stay() {
         assert_eq!((&next.hum, &next.act, &next.cld), (&b.hum, &b.act, &b.cld));
         a = next;
     }
-    assert!(a.counts()[2] > start.counts()[2], "clouds should have grown");
+    assert!(
+        a.counts()[2] > start.counts()[2],
+        "clouds should have grown"
+    );
 }
 
 #[test]
@@ -180,7 +190,10 @@ fn certain_extinction_empties_and_certain_regeneration_fills() {
         ..Probabilities::none()
     };
     let from_dry = empty(n, 9).step(&half, &Wind::CALM).counts()[0] as f64 / cells as f64;
-    assert!((from_dry - 0.5).abs() < 4.0 * (0.25 / cells as f64).sqrt(), "{from_dry}");
+    assert!(
+        (from_dry - 0.5).abs() < 4.0 * (0.25 / cells as f64).sqrt(),
+        "{from_dry}"
+    );
 }
 
 #[test]
@@ -209,7 +222,11 @@ fn wind_moves_a_cell_by_its_layers_shift_per_step() {
                     at[2].rem_euclid(n[2] as i64) as usize,
                 ];
                 let expect_present = wrap || inside;
-                assert_eq!(s.counts()[2], u64::from(expect_present), "layer {layer} step {step}");
+                assert_eq!(
+                    s.counts()[2],
+                    u64::from(expect_present),
+                    "layer {layer} step {step}"
+                );
                 if expect_present {
                     assert!(get(&s, 2, at), "layer {layer} step {step}: not at {at:?}");
                 }
@@ -232,13 +249,28 @@ fn wind_moves_a_cell_by_its_layers_shift_per_step() {
 fn same_seed_gives_the_same_frames_on_one_and_two_threads() {
     let n = [96, 8, 20];
     let regions: Vec<f32> = each_cell(n)
-        .map(|[i, j, k]| ellipsoid_profile([i as f64, j as f64, k as f64], [48.0, 3.0, 10.0], [40.0, 5.0, 9.0]) as f32)
+        .map(|[i, j, k]| {
+            ellipsoid_profile(
+                [i as f64, j as f64, k as f64],
+                [48.0, 3.0, 10.0],
+                [40.0, 5.0, 9.0],
+            ) as f32
+        })
         .collect();
     let planes = Planes::new(n);
     let p = Probabilities {
-        hum: Probability::from_cells(&planes, &regions.iter().map(|v| 0.2 * v).collect::<Vec<_>>()),
-        act: Probability::from_cells(&planes, &regions.iter().map(|v| 0.01 * v).collect::<Vec<_>>()),
-        ext: Probability::from_cells(&planes, &regions.iter().map(|v| 0.1 * (1.0 - v)).collect::<Vec<_>>()),
+        hum: Probability::from_cells(
+            &planes,
+            &regions.iter().map(|v| 0.2 * v).collect::<Vec<_>>(),
+        ),
+        act: Probability::from_cells(
+            &planes,
+            &regions.iter().map(|v| 0.01 * v).collect::<Vec<_>>(),
+        ),
+        ext: Probability::from_cells(
+            &planes,
+            &regions.iter().map(|v| 0.1 * (1.0 - v)).collect::<Vec<_>>(),
+        ),
     };
     let wind = Wind {
         bottom: [0.5, 0.0],
@@ -246,22 +278,41 @@ fn same_seed_gives_the_same_frames_on_one_and_two_threads() {
         wrap: false,
     };
     let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
         pool.install(|| {
             let mut s = random_state(n, 42, 0.3, 0.002, 0.0);
             let mut frames = Vec::new();
             for _ in 0..10 {
                 s = s.step(&p, &wind);
-                let density = SmoothedCloud::new(s.domain.clone(), s.planes, s.cloud_frames(2), Smoothing { radius: 1, window: 1 });
+                let density = SmoothedCloud::new(
+                    s.domain.clone(),
+                    s.planes,
+                    s.cloud_frames(2),
+                    Smoothing {
+                        radius: 1,
+                        window: 1,
+                    },
+                );
                 let sum: f64 = each_cell(n).map(|[i, j, k]| density.at_cell(i, j, k)).sum();
-                frames.push(((*s.hum).clone(), (*s.act).clone(), (*s.cld).clone(), sum.to_bits()));
+                frames.push((
+                    (*s.hum).clone(),
+                    (*s.act).clone(),
+                    (*s.cld).clone(),
+                    sum.to_bits(),
+                ));
             }
             frames
         })
     };
     let one = run(1);
     assert_eq!(one, run(2));
-    assert!(one.last().unwrap().2.iter().any(|w| *w != 0), "no clouds formed");
+    assert!(
+        one.last().unwrap().2.iter().any(|w| *w != 0),
+        "no clouds formed"
+    );
     // A frame recomputed alone from its predecessor is the same frame.
 }
 
@@ -291,7 +342,15 @@ fn smoothing_follows_its_weights() {
     let n = [9, 9, 9];
     let mut s = empty(n, 1);
     set(&mut s, 2, [4, 4, 4], true);
-    let d = SmoothedCloud::new(s.domain.clone(), s.planes, s.cloud_frames(1), Smoothing { radius: 1, window: 0 });
+    let d = SmoothedCloud::new(
+        s.domain.clone(),
+        s.planes,
+        s.cloud_frames(1),
+        Smoothing {
+            radius: 1,
+            window: 0,
+        },
+    );
     // Tent weights 1, 2, 1 along each axis: the window sums to 4³ = 64.
     assert_eq!(d.at_cell(4, 4, 4), 8.0 / 64.0);
     assert_eq!(d.at_cell(5, 4, 4), 4.0 / 64.0);
@@ -301,7 +360,12 @@ fn smoothing_follows_its_weights() {
     let full = random_state(n, 1, 0.0, 0.0, 1.0);
     let stepped = full.step(&Probabilities::none(), &Wind::CALM);
     for (radius, window) in [(1, 0), (2, 1), (3, 1)] {
-        let d = SmoothedCloud::new(full.domain.clone(), full.planes, stepped.cloud_frames(window + 1), Smoothing { radius, window });
+        let d = SmoothedCloud::new(
+            full.domain.clone(),
+            full.planes,
+            stepped.cloud_frames(window + 1),
+            Smoothing { radius, window },
+        );
         assert!((d.at_cell(4, 4, 4) - 1.0).abs() < 1e-12);
     }
     // Over time: the newest frame weighs 2, the one before 1 (window 1).
@@ -312,7 +376,15 @@ fn smoothing_follows_its_weights() {
         },
         &Wind::CALM,
     );
-    let d = SmoothedCloud::new(later.domain.clone(), later.planes, later.cloud_frames(2), Smoothing { radius: 1, window: 1 });
+    let d = SmoothedCloud::new(
+        later.domain.clone(),
+        later.planes,
+        later.cloud_frames(2),
+        Smoothing {
+            radius: 1,
+            window: 1,
+        },
+    );
     assert_eq!(d.at_cell(4, 4, 4), 8.0 / (64.0 * 3.0));
     // Ranges: certainly zero far from the cloud, possibly non-zero over it.
     use crate::sample::Aabb;
@@ -342,7 +414,11 @@ fn row_shifts_match_a_cell_by_cell_shift() {
                     } else {
                         (0..nx as i64).contains(&from) && bits[from as usize]
                     };
-                    assert_eq!(planes.get(&out, x, 0, 0), expected, "nx {nx} s {s} wrap {wrap} x {x}");
+                    assert_eq!(
+                        planes.get(&out, x, 0, 0),
+                        expected,
+                        "nx {nx} s {s} wrap {wrap} x {x}"
+                    );
                 }
                 assert_eq!(out[planes.words - 1] & !planes.mask(planes.words - 1), 0);
             }
@@ -362,7 +438,12 @@ fn smoothing_a_box_equals_smoothing_cell_by_cell() {
         &Wind::CALM,
     );
     for (radius, window) in [(0, 0), (1, 1), (2, 2), (3, 1)] {
-        let d = SmoothedCloud::new(s.domain.clone(), s.planes, s.cloud_frames(window + 1), Smoothing { radius, window });
+        let d = SmoothedCloud::new(
+            s.domain.clone(),
+            s.planes,
+            s.cloud_frames(window + 1),
+            Smoothing { radius, window },
+        );
         let (lo, hi) = ([60, 2, 0], [70, 9, 6]);
         let (mut out, mut scratch) = (Vec::new(), Vec::new());
         d.fill_box(lo, hi, &mut out, &mut scratch);
@@ -370,7 +451,11 @@ fn smoothing_a_box_equals_smoothing_cell_by_cell() {
         for k in lo[2]..hi[2] {
             for j in lo[1]..hi[1] {
                 for i in lo[0]..hi[0] {
-                    assert_eq!(out[at].to_bits(), d.at_cell(i, j, k).to_bits(), "r {radius} cell {i} {j} {k}");
+                    assert_eq!(
+                        out[at].to_bits(),
+                        d.at_cell(i, j, k).to_bits(),
+                        "r {radius} cell {i} {j} {k}"
+                    );
                     at += 1;
                 }
             }

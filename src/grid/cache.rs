@@ -175,7 +175,14 @@ impl Cache {
         background: Vec<f64>,
         origin_label: String,
     ) -> Outcome<Cache> {
-        Cache::from_source(domain, width, source, background, "cachewrite", origin_label)
+        Cache::from_source(
+            domain,
+            width,
+            source,
+            background,
+            "cachewrite",
+            origin_label,
+        )
     }
 
     /// The same as `from_field`, counted in the profile under `kind` (for grids an operation

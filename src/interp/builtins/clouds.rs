@@ -8,7 +8,9 @@
 //! state remembers the fields its probabilities came from, so stepping again with the same
 //! fields (the same graph) reuses the sampled region volume instead of sampling it anew.
 
-use crate::cloud::{ellipsoid_field, CloudState, Planes, Probabilities, Probability, SmoothedCloud, Smoothing, Wind};
+use crate::cloud::{
+    CloudState, Planes, Probabilities, Probability, SmoothedCloud, Smoothing, Wind, ellipsoid_field,
+};
 use crate::failure::{Failure, Outcome};
 use crate::field::{CompiledField, Field};
 use crate::grid::cache::Cache;
@@ -109,9 +111,20 @@ pub fn register(r: &mut Registry) {
                 Smoothing { radius, window },
             );
             let label = format!("clouddensity at {}", interp.location(interp.call_span));
-            let cache = Cache::from_source(state.domain.clone(), 1, Arc::new(sampler), vec![0.0], "clouddensity", label)?;
+            let cache = Cache::from_source(
+                state.domain.clone(),
+                1,
+                Arc::new(sampler),
+                vec![0.0],
+                "clouddensity",
+                label,
+            )?;
             let grid: Arc<dyn GridSource> = Arc::new(cache);
-            Ok(Value::Field(Field::from_grid(grid, Interp::Linear, GridDerivative::Interpolant)?))
+            Ok(Value::Field(Field::from_grid(
+                grid,
+                Interp::Linear,
+                GridDerivative::Interpolant,
+            )?))
         },
     );
     r.add(
@@ -132,10 +145,16 @@ fn cloudstep(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
     let steps = match a.opt_int("steps")? {
         None => 1,
         Some(n) if n >= 0 => n as u64,
-        Some(n) => return Err(Failure::new(format!("steps must not be negative, found {n}"))),
+        Some(n) => {
+            return Err(Failure::new(format!(
+                "steps must not be negative, found {n}"
+            )));
+        }
     };
     let horizontal = |name: &str| -> Outcome<Option<[f64; 2]>> {
-        let Some(v) = a.opt(name) else { return Ok(None) };
+        let Some(v) = a.opt(name) else {
+            return Ok(None);
+        };
         let v = v.as_vector()?;
         if !v.is_finite() {
             return Err(Failure::new(format!("{name} must be finite")));
@@ -160,7 +179,14 @@ fn cloudstep(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
     let state = &var.state;
     let resolution = [state.planes.nx, state.planes.ny, state.planes.nz];
     let region_label = format!("cloudstep regions at {location}");
-    let regions = sample_regions(&a, &state.domain, resolution, STEP_CHANNELS, var.regions.as_ref(), &region_label)?;
+    let regions = sample_regions(
+        &a,
+        &state.domain,
+        resolution,
+        STEP_CHANNELS,
+        var.regions.as_ref(),
+        &region_label,
+    )?;
     let stats = profile::register("cloudstep", &format!("cloudstep at {location}"));
     let mut next = None;
     for _ in 0..steps {
@@ -212,7 +238,13 @@ fn sample_regions(
     let mut channels = Vec::with_capacity(3);
     let mut sampled = 0u64;
     for (field, name) in fields.iter().zip(names) {
-        channels.push(probability(field.as_ref(), name, domain, &planes, &mut sampled)?);
+        channels.push(probability(
+            field.as_ref(),
+            name,
+            domain,
+            &planes,
+            &mut sampled,
+        )?);
     }
     let [hum, act, ext]: [Probability; 3] = channels
         .try_into()
@@ -230,13 +262,21 @@ fn sample_regions(
 
 /// One probability: uniform for a constant field, else sampled at the cell centres (bricks
 /// where the field is certainly zero are not evaluated). Adds the bytes kept to `sampled`.
-fn probability(field: Option<&Field>, name: &str, domain: &Domain, planes: &Planes, sampled: &mut u64) -> Outcome<Probability> {
+fn probability(
+    field: Option<&Field>,
+    name: &str,
+    domain: &Domain,
+    planes: &Planes,
+    sampled: &mut u64,
+) -> Outcome<Probability> {
     let Some(field) = field else {
         return Ok(Probability::Uniform(0));
     };
     if let Some(crate::field::FieldValue::Scalar(p)) = field.as_constant() {
         if !p.is_finite() {
-            return Err(Failure::new(format!("probability {name} must be finite, found {p}")));
+            return Err(Failure::new(format!(
+                "probability {name} must be finite, found {p}"
+            )));
         }
         return Ok(Probability::uniform(p));
     }
@@ -250,7 +290,10 @@ fn probability(field: Option<&Field>, name: &str, domain: &Domain, planes: &Plan
 fn cloud<'a>(a: &'a Args) -> Outcome<&'a Rc<CloudVar>> {
     match a.get("c")? {
         Value::CloudSim(c) => Ok(c),
-        other => Err(Failure::new(format!("expected a cloudsim, found {}", other.type_of()))),
+        other => Err(Failure::new(format!(
+            "expected a cloudsim, found {}",
+            other.type_of()
+        ))),
     }
 }
 
@@ -269,7 +312,9 @@ fn bounded(a: &Args, name: &str, default: usize, max: usize) -> Outcome<usize> {
     match a.opt_int(name)? {
         None => Ok(default),
         Some(n) if (0..=max as i64).contains(&n) => Ok(n as usize),
-        Some(n) => Err(Failure::new(format!("{name} must be between 0 and {max}, found {n}"))),
+        Some(n) => Err(Failure::new(format!(
+            "{name} must be between 0 and {max}, found {n}"
+        ))),
     }
 }
 
