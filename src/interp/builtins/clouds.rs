@@ -287,7 +287,7 @@ fn probability(
     Ok(p)
 }
 
-fn cloud<'a>(a: &'a Args) -> Outcome<&'a Rc<CloudVar>> {
+fn cloud(a: &Args) -> Outcome<&Rc<CloudVar>> {
     match a.get("c")? {
         Value::CloudSim(c) => Ok(c),
         other => Err(Failure::new(format!(
