@@ -13,6 +13,7 @@
 
 pub mod budget;
 pub mod check;
+pub mod cloud;
 pub mod diagnostic;
 pub mod doc;
 pub mod failure;

@@ -25,6 +25,7 @@ pub enum Type {
     Particles,
     Camera,
     Light,
+    CloudSim,
     Void,
     Array(Box<Type>),
     /// The empty array literal `{}`, which fits any array type.
@@ -54,6 +55,7 @@ impl Type {
             BaseType::Particles => Type::Particles,
             BaseType::Camera => Type::Camera,
             BaseType::Light => Type::Light,
+            BaseType::CloudSim => Type::CloudSim,
             BaseType::Void => Type::Void,
         }
     }
@@ -152,6 +154,7 @@ impl Type {
                 | Type::MatrixCache
                 | Type::Camera
                 | Type::Light
+                | Type::CloudSim
                 | Type::Void
         )
     }
@@ -184,6 +187,7 @@ impl fmt::Display for Type {
             Type::Particles => "particles",
             Type::Camera => "camera",
             Type::Light => "light",
+            Type::CloudSim => "cloudsim",
             Type::Void => "void",
             Type::Array(elem) => return write!(f, "{elem}[]"),
             Type::EmptyArray => "empty array",

@@ -175,6 +175,26 @@ impl Cache {
         background: Vec<f64>,
         origin_label: String,
     ) -> Outcome<Cache> {
+        Cache::from_source(
+            domain,
+            width,
+            source,
+            background,
+            "cachewrite",
+            origin_label,
+        )
+    }
+
+    /// The same as `from_field`, counted in the profile under `kind` (for grids an operation
+    /// other than `cachewrite` fills lazily, such as `clouddensity`).
+    pub fn from_source(
+        domain: Domain,
+        width: usize,
+        source: Arc<dyn FieldSampler>,
+        background: Vec<f64>,
+        kind: &str,
+        origin_label: String,
+    ) -> Outcome<Cache> {
         if source.width() != width {
             let field = match source.width() {
                 1 => "a scalarfield".to_string(),
@@ -189,7 +209,7 @@ impl Cache {
         }
         let mut cache = Cache::empty(domain, width, background, origin_label)?;
         *lock(&cache.source) = Some(source);
-        let stats = profile::register("cachewrite", &cache.label);
+        let stats = profile::register(kind, &cache.label);
         stats.add_instance(cache.bricks.len() as u64);
         stats.add_work(0, cache.table_bytes());
         cache.profile = Some(stats);

@@ -381,6 +381,7 @@ fn parse_type(text: &str) -> Result<Type, String> {
         "particles" => Type::Particles,
         "camera" => Type::Camera,
         "light" => Type::Light,
+        "cloudsim" => Type::CloudSim,
         "void" => Type::Void,
         other => return Err(format!("unknown type `{other}`")),
     })

@@ -36,6 +36,8 @@ pub enum Value {
     Light(Rc<Light>),
     /// Points with attributes; shared, never changed once made.
     Particles(Arc<Particles>),
+    /// One state of a cloud automaton (`cloudca`, `cloudstep`).
+    CloudSim(Rc<crate::interp::builtins::clouds::CloudVar>),
     /// Elements and the element type (needed for `{}` and for conversions).
     Array(Rc<Vec<Value>>, Type),
 }
@@ -72,6 +74,7 @@ impl Value {
             Value::Camera(_) => Type::Camera,
             Value::Light(_) => Type::Light,
             Value::Particles(_) => Type::Particles,
+            Value::CloudSim(_) => Type::CloudSim,
             Value::Array(_, elem) => Type::array_of(elem.clone()),
         }
     }
@@ -322,6 +325,7 @@ impl fmt::Display for Value {
                     .collect();
                 write!(f, "particles ({} points: {})", p.len(), names.join(", "))
             }
+            Value::CloudSim(c) => write!(f, "{}", c.state),
             Value::Array(items, _) => {
                 f.write_str("{")?;
                 for (i, item) in items.iter().enumerate() {

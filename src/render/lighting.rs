@@ -113,10 +113,26 @@ impl<'a> Illumination<'a> {
         let columns = match settings.shadows {
             Shadows::March => Columns::March { step, bounds },
             Shadows::Cache { cell_size, method } => {
+                // Swept over a grid density's own cells: one slice per layer of the grid and
+                // one density sample per cell, as the source's shading sweep does.
+                let aligned = match (method, cell_size) {
+                    (TransmissivityMethod::Sweep, None) => grid_domain(density),
+                    _ => None,
+                };
+                let stats = crate::grid::profile::register("lightgrid", light_label(method));
                 let mut grids = Vec::with_capacity(lights.len());
                 for light in lights {
-                    let domain = shadow_domain(light, bounds, step, cell_size, method)?;
+                    let started = std::time::Instant::now();
+                    let domain = match &aligned {
+                        Some(d) => d.clone(),
+                        None => shadow_domain(light, bounds, step, cell_size, method)?,
+                    };
                     grids.push(light_columns(density, light, &domain, method, limit)?);
+                    stats.add_instance(0);
+                    stats.add_work(
+                        started.elapsed().as_nanos() as u64,
+                        (domain.cell_count() * 4) as u64,
+                    );
                 }
                 Columns::Grids(grids)
             }
@@ -237,6 +253,36 @@ impl<'a> Illumination<'a> {
             DVec3::new((-optical.x).exp(), (-optical.y).exp(), (-optical.z).exp())
         }
     }
+}
+
+/// The profile label of a render's light grids.
+fn light_label(method: TransmissivityMethod) -> &'static str {
+    match method {
+        TransmissivityMethod::Auto => "render shadows (light cache)",
+        TransmissivityMethod::Sweep => "render shadows (sweep)",
+        TransmissivityMethod::March => "render shadows (marched cache)",
+    }
+}
+
+/// The cells of the one axis-aligned grid a density reads, if it reads exactly one.
+pub fn grid_domain(density: &dyn FieldSampler) -> Option<Domain> {
+    let grids = density.grids();
+    let [grid] = grids.as_slice() else {
+        return None;
+    };
+    let lattice = grid.lattice()?;
+    if lattice.rotation != glam::DMat3::IDENTITY {
+        return None;
+    }
+    let counts = lattice.counts.map(|n| n as f64);
+    Some(Domain {
+        origin: lattice.origin,
+        lengths: lattice.cell * DVec3::from_array(counts),
+        orientation: DVec3::ZERO,
+        rotation: glam::DMat3::IDENTITY,
+        resolution: Some(lattice.counts),
+        cell: lattice.cell,
+    })
 }
 
 /// The grid over `bounds` for one light's columns.

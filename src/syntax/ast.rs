@@ -61,6 +61,7 @@ pub enum BaseType {
     Particles,
     Camera,
     Light,
+    CloudSim,
     Void,
 }
 
@@ -85,6 +86,7 @@ impl BaseType {
             BaseType::Particles => "particles",
             BaseType::Camera => "camera",
             BaseType::Light => "light",
+            BaseType::CloudSim => "cloudsim",
             BaseType::Void => "void",
         }
     }

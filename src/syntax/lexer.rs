@@ -87,6 +87,7 @@ pub enum Token<'src> {
     #[token("particles", |_| BaseType::Particles)]
     #[token("camera", |_| BaseType::Camera)]
     #[token("light", |_| BaseType::Light)]
+    #[token("cloudsim", |_| BaseType::CloudSim)]
     #[token("void", |_| BaseType::Void)]
     Type(BaseType),
 
@@ -443,6 +444,7 @@ mod tests {
             BaseType::Particles,
             BaseType::Camera,
             BaseType::Light,
+            BaseType::CloudSim,
             BaseType::Void,
         ];
         for base in all {

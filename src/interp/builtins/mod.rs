@@ -2,6 +2,7 @@
 //! adding a capability means adding a group here, nothing else.
 
 mod attributes;
+pub mod clouds;
 mod core;
 mod fields;
 pub mod format;
@@ -28,4 +29,5 @@ pub fn register_all(r: &mut Registry) {
     attributes::register(r);
     simulation::register(r);
     particles::register(r);
+    clouds::register(r);
 }

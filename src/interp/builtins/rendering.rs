@@ -289,9 +289,13 @@ fn run_render(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
         settings.shadows = match mode.as_str()? {
             "cache" => Shadows::default(),
             "march" => Shadows::March,
+            "sweep" => Shadows::Cache {
+                cell_size: None,
+                method: TransmissivityMethod::Sweep,
+            },
             other => {
                 return Err(Failure::new(format!(
-                    "shadows must be \"cache\" or \"march\", found \"{other}\""
+                    "shadows must be \"cache\", \"sweep\" or \"march\", found \"{other}\""
                 )));
             }
         };
@@ -307,9 +311,13 @@ fn run_render(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
                 "shadowcell sets the light cache; it has no meaning with shadows = \"march\"",
             ));
         }
+        let method = match settings.shadows {
+            Shadows::Cache { method, .. } => method,
+            Shadows::March => TransmissivityMethod::Auto,
+        };
         settings.shadows = Shadows::Cache {
             cell_size: Some(cell),
-            method: TransmissivityMethod::Auto,
+            method,
         };
     }
     let tonemap = match a.opt("tonemap") {

@@ -1,0 +1,238 @@
+//! Cloud-automaton benchmark at the source's size (seed 003, §8): a 256 × 32 × 256 cloud
+//! volume, each stage of an update timed on this machine and printed beside the source's
+//! figures on its GPU (GeForce 8700M GT): region-volume update 5.263 ms, simulation step
+//! 12.5 ms, smoothing 6.024 ms, shading 8.696 ms.
+//!
+//! The scene is the `cloud_sky` example's: 26 drifting ellipsoids (felt fields, compiled as a
+//! script's are) give the probabilities, the
+//! automaton has grown for 48 steps, the density is smoothed over two cells and two earlier
+//! steps, and the sun is swept slice by slice over the cloud's own cells. Each stage is timed
+//! as the median of repeated runs on all threads (`RAYON_NUM_THREADS` to change).
+//!
+//! Run with `cargo bench --bench clouds`.
+
+use felt::cloud::{
+    CloudState, Planes, Probabilities, Probability, SmoothedCloud, Smoothing, Wind, ellipsoid_field,
+};
+use felt::field::{CompiledField, Field};
+use felt::grid::cache::Cache;
+use felt::grid::domain::Domain;
+use felt::render::transmittance::light_columns;
+use felt::render::{Light, TransmissivityMethod};
+use felt::sample::{GridDerivative, GridSource, Interp};
+use glam::DVec3;
+use std::sync::Arc;
+use std::time::Instant;
+
+const CELLS: [usize; 3] = [256, 32, 256];
+
+fn jitter(i: usize, salt: f64) -> f64 {
+    let x = (12.9898 * i as f64 + 78.233 * salt).sin() * 43758.5453;
+    x - x.floor()
+}
+
+/// The example's region volume at time `t` (in steps): the maximum of 26 ellipsoid profiles,
+/// built from felt field nodes as `cloudellipsoid` builds them.
+fn regions(t: f64, cell: f64) -> Field {
+    let drift = DVec3::new(0.675, 0.0, 0.16) * cell;
+    let mut r = Field::constant_scalar(0.0);
+    for i in 0..26 {
+        let size = 0.55 + 0.75 * jitter(i, 3.0);
+        let c = DVec3::new(
+            -12.0 + 20.0 * jitter(i, 1.0),
+            1.75 + 0.25 * size,
+            -7.0 + 14.0 * jitter(i, 2.0),
+        );
+        let radii = DVec3::new(1.6 * size, 0.45 + 0.5 * size, 1.3 * size);
+        r = Field::max(&r, &ellipsoid_field(c + t * drift, radii).unwrap()).unwrap();
+    }
+    r
+}
+
+fn constant(c: f64) -> Field {
+    Field::constant_scalar(c)
+}
+
+/// The example's three probability fields of a region field `r`, compiled.
+fn probability_fields(r: &Field) -> [CompiledField; 3] {
+    let one_minus = constant(1.0).sub(r).unwrap();
+    [
+        r.mul(&constant(0.25)).unwrap(),
+        r.mul(&constant(0.004)).unwrap(),
+        constant(0.02)
+            .add(
+                &one_minus
+                    .mul(&one_minus)
+                    .unwrap()
+                    .mul(&constant(0.3))
+                    .unwrap(),
+            )
+            .unwrap(),
+    ]
+    .map(|f| CompiledField::prepared(&f).unwrap())
+}
+
+/// Median seconds of `runs` calls of `f`.
+fn median<T>(runs: usize, mut f: impl FnMut() -> T) -> (f64, T) {
+    let mut times = Vec::with_capacity(runs);
+    let mut last = None;
+    for _ in 0..runs {
+        let started = Instant::now();
+        last = Some(std::hint::black_box(f()));
+        times.push(started.elapsed().as_secs_f64());
+    }
+    times.sort_by(f64::total_cmp);
+    (times[runs / 2], last.unwrap())
+}
+
+/// The region-volume update: the three probability fields sampled at the cells.
+fn probabilities(fields: &[CompiledField; 3], domain: &Domain, planes: &Planes) -> Probabilities {
+    let [hum, act, ext] = fields
+        .each_ref()
+        .map(|f| Probability::sample(f, domain, planes));
+    Probabilities { hum, act, ext }
+}
+
+fn main() {
+    let threads = rayon::current_num_threads();
+    let cell = 16.0 / CELLS[0] as f64;
+    let domain = Domain::with_cells(
+        DVec3::new(-8.0, 1.2, -8.0),
+        DVec3::new(16.0, 2.0, 16.0),
+        DVec3::ZERO,
+        cell,
+        cell,
+    )
+    .unwrap();
+    let planes = Planes::new(CELLS);
+    let wind = Wind {
+        bottom: [0.45, 0.12],
+        top: [0.9, 0.2],
+        wrap: false,
+    };
+    println!(
+        "cloud automaton, {}x{}x{} cells, {threads} threads",
+        CELLS[0], CELLS[1], CELLS[2]
+    );
+    // Grow the sky to frame 48 as the example does (regions every 8 steps).
+    let start = Probabilities {
+        hum: Probability::sample(
+            &CompiledField::prepared(&regions(0.0, cell).mul(&constant(0.5)).unwrap()).unwrap(),
+            &domain,
+            &planes,
+        ),
+        act: Probability::uniform(0.0),
+        ext: Probability::uniform(0.0),
+    };
+    let mut state = CloudState::initial(domain.clone(), CELLS, 7, &start);
+    let grow = Instant::now();
+    for f in (0..48).step_by(8) {
+        let p = probabilities(
+            &probability_fields(&regions(f as f64 + 4.0, cell)),
+            &domain,
+            &planes,
+        );
+        for _ in 0..8 {
+            state = state.step(&p, &wind);
+        }
+    }
+    println!(
+        "grown to step 48 in {:.2} s; cover {:?} of {} cells",
+        grow.elapsed().as_secs_f64(),
+        state.counts(),
+        planes.cells()
+    );
+
+    let fields = probability_fields(&regions(52.0, cell));
+    let (t_region, p_all) = median(5, || probabilities(&fields, &domain, &planes));
+    let (t_step, _) = median(21, || state.step(&p_all, &wind));
+    let smoothing = Smoothing {
+        radius: 2,
+        window: 2,
+    };
+    let (t_smooth, cache) = median(5, || {
+        let sampler = SmoothedCloud::new(
+            domain.clone(),
+            state.planes,
+            state.cloud_frames(3),
+            smoothing,
+        );
+        let cache = Cache::from_source(
+            domain.clone(),
+            1,
+            Arc::new(sampler),
+            vec![0.0],
+            "clouddensity",
+            "bench".into(),
+        )
+        .unwrap();
+        cache.fill_all();
+        cache
+    });
+    let filled = cache.bricks_filled();
+    let total = cache.bricks_total();
+    let grid: Arc<dyn GridSource> = Arc::new(cache);
+    let density = CompiledField::prepared(
+        &Field::from_grid(grid, Interp::Linear, GridDerivative::Interpolant).unwrap(),
+    )
+    .unwrap();
+    let sun = Light::distant(DVec3::new(0.55, -0.6, -0.55), DVec3::ONE).unwrap();
+    let (t_shade, _) = median(5, || {
+        light_columns(
+            &density,
+            &sun,
+            &domain,
+            TransmissivityMethod::Sweep,
+            f64::INFINITY,
+        )
+        .unwrap()
+    });
+    let (t_march, _) = median(1, || {
+        light_columns(
+            &density,
+            &sun,
+            &domain,
+            TransmissivityMethod::March,
+            f64::INFINITY,
+        )
+        .unwrap()
+    });
+
+    let ms = |s: f64| s * 1e3;
+    println!();
+    println!(
+        "| stage | felt, {threads} threads (ms) | source, GeForce 8700M GT (ms) | felt / source |"
+    );
+    println!("|---|---|---|---|");
+    let rows = [
+        (
+            "region-volume update (3 fields, 26 ellipsoids)",
+            t_region,
+            5.263,
+        ),
+        ("simulation step", t_step, 12.5),
+        ("smoothing (radius 2, window 2)", t_smooth, 6.024),
+        ("shading (light sweep)", t_shade, 8.696),
+    ];
+    for (name, t, source) in rows {
+        println!(
+            "| {name} | {:.2} | {source} | {:.2} |",
+            ms(t),
+            ms(t) / source
+        );
+    }
+    let total_felt = t_region + t_step + t_smooth + t_shade;
+    let total_source = 5.263 + 12.5 + 6.024 + 8.696;
+    println!(
+        "| whole update | {:.2} | {total_source:.1} | {:.2} |",
+        ms(total_felt),
+        ms(total_felt) / total_source
+    );
+    println!();
+    println!("smoothing filled {filled} of {total} bricks (the rest had no cloud within reach)");
+    println!(
+        "shading by the light cache's per-cell march instead: {:.0} ms ({:.0}x the sweep)",
+        ms(t_march),
+        t_march / t_shade
+    );
+}
