@@ -66,18 +66,63 @@ impl Interval {
         )
     }
 
-    fn recip(self) -> Interval {
-        if self.lo > 0.0 || self.hi < 0.0 {
-            Interval::new(1.0 / self.hi, 1.0 / self.lo)
-        } else {
-            ALL
+    /// `self / o`, from the quotients of the ends: each is rounded once, as the point
+    /// division is, so the bounds are those of the values the tape computes. (A reciprocal
+    /// times the dividend rounds twice and can land one unit in the last place inside.)
+    fn div(self, o: Interval) -> Interval {
+        if self.is_zero() {
+            return Interval::point(0.0);
         }
+        if !(o.lo > 0.0 || o.hi < 0.0) {
+            return ALL;
+        }
+        let q = [
+            self.lo / o.lo,
+            self.lo / o.hi,
+            self.hi / o.lo,
+            self.hi / o.hi,
+        ];
+        Interval::spanning(&q)
+    }
+
+    /// The smallest interval holding `values`; everything if one is NaN.
+    fn spanning(values: &[f64]) -> Interval {
+        if values.iter().any(|v| v.is_nan()) {
+            return ALL;
+        }
+        Interval::new(
+            values.iter().copied().fold(f64::INFINITY, f64::min),
+            values.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        )
     }
 
     fn monotone(self, f: impl Fn(f64) -> f64) -> Interval {
         Interval::new(f(self.lo), f(self.hi))
     }
+
+    /// Wider by one unit in the last place at each non-zero finite end. The library's exp,
+    /// ln, pow, sin and inverse trigonometric functions are accurate to within an ulp but not
+    /// always correctly rounded, so a value inside the box may round one step past the value
+    /// at its end; zeros (exp of -inf, ln 1, sin 0) are exact and stay.
+    fn widened(self) -> Interval {
+        let out = |v: f64, up: bool| match (v == 0.0 || !v.is_finite(), up) {
+            (true, _) => v,
+            (false, true) => v.next_up(),
+            (false, false) => v.next_down(),
+        };
+        Interval::new(out(self.lo, false), out(self.hi, true))
+    }
+
+    fn clamped(self, lo: f64, hi: f64) -> Interval {
+        Interval::new(self.lo.max(lo), self.hi.min(hi))
+    }
 }
+
+/// Largest magnitude at which the narrow rule for sin and cos finds crests by arithmetic: the
+/// crest `(k + 1/2)π` is then placed to within 1e-9, so its value is 1 to far below an ulp.
+/// Farther out the crests computed in floating point drift from the true ones by whole
+/// fractions of a period.
+const NARROW_TRIG_REACH: f64 = 1048576.0;
 
 fn unary(m: MathFn, a: Interval) -> Interval {
     match m {
@@ -91,10 +136,11 @@ fn unary(m: MathFn, a: Interval) -> Interval {
             }
         }
         MathFn::Sqrt if a.lo >= 0.0 => a.monotone(f64::sqrt),
-        MathFn::Exp => a.monotone(f64::exp),
-        MathFn::Log if a.lo > 0.0 => a.monotone(f64::ln),
+        MathFn::Exp => a.monotone(f64::exp).widened(),
+        MathFn::Log if a.lo > 0.0 => a.monotone(f64::ln).widened(),
         MathFn::Sin | MathFn::Cos => {
-            if a.hi - a.lo < 1.0 && a.lo.is_finite() && a.hi.is_finite() {
+            let reach = a.lo.abs().max(a.hi.abs());
+            if a.hi - a.lo < 1.0 && reach < NARROW_TRIG_REACH {
                 // Narrow: the extremes are at the ends or at a crest inside.
                 let f = if m == MathFn::Sin { f64::sin } else { f64::cos };
                 let mut r = Interval::new(f(a.lo).min(f(a.hi)), f(a.lo).max(f(a.hi)));
@@ -106,17 +152,17 @@ fn unary(m: MathFn, a: Interval) -> Interval {
                     r = r.union(Interval::point(f(crest(k))));
                     k += 1.0;
                 }
-                r
+                r.widened().clamped(-1.0, 1.0)
             } else {
                 Interval::new(-1.0, 1.0)
             }
         }
-        MathFn::Asin => Interval::new(a.lo.max(-1.0), a.hi.min(1.0)).monotone(f64::asin),
+        MathFn::Asin => a.clamped(-1.0, 1.0).monotone(f64::asin).widened(),
         MathFn::Acos => {
-            let c = Interval::new(a.lo.max(-1.0), a.hi.min(1.0));
-            Interval::new(c.hi.acos(), c.lo.acos())
+            let c = a.clamped(-1.0, 1.0);
+            Interval::new(c.hi.acos(), c.lo.acos()).widened()
         }
-        MathFn::Atan => a.monotone(f64::atan),
+        MathFn::Atan => a.monotone(f64::atan).widened(),
         MathFn::Floor => a.monotone(f64::floor),
         MathFn::Ceil => a.monotone(f64::ceil),
         MathFn::Fract => {
@@ -137,9 +183,9 @@ fn binary(op: BinOp, a: Interval, b: Interval) -> Interval {
         BinOp::Add => Interval::new(a.lo + b.lo, a.hi + b.hi),
         BinOp::Sub => Interval::new(a.lo - b.hi, a.hi - b.lo),
         BinOp::Mul => a.mul(b),
-        BinOp::Div => a.mul(b.recip()),
+        BinOp::Div => a.div(b),
         BinOp::GuardedDiv => {
-            let q = a.mul(b.recip());
+            let q = a.div(b);
             if b.lo <= 0.0 && b.hi >= 0.0 {
                 // Zero is a possible value where the divisor vanishes.
                 q.union(Interval::point(0.0))
@@ -149,20 +195,30 @@ fn binary(op: BinOp, a: Interval, b: Interval) -> Interval {
         }
         BinOp::Min => Interval::new(a.lo.min(b.lo), a.hi.min(b.hi)),
         BinOp::Max => Interval::new(a.lo.max(b.lo), a.hi.max(b.hi)),
-        BinOp::Atan2 => Interval::new(-std::f64::consts::PI, std::f64::consts::PI),
+        BinOp::Atan2 => Interval::point(std::f64::consts::PI)
+            .widened()
+            .union(Interval::point(-std::f64::consts::PI).widened()),
         BinOp::Pow => {
             if a.lo > 0.0 {
-                // x^y = exp(y ln x), monotone in each factor's ends.
-                let ln = a.monotone(f64::ln);
-                unary(MathFn::Exp, ln.mul(b))
+                // For x > 0, x^y is monotone in each argument, so its extremes over the box
+                // are at the corners; `powf` there is what the tape computes.
+                let corners = [
+                    a.lo.powf(b.lo),
+                    a.lo.powf(b.hi),
+                    a.hi.powf(b.lo),
+                    a.hi.powf(b.hi),
+                ];
+                Interval::spanning(&corners).widened()
             } else if b.lo == b.hi && b.lo.fract() == 0.0 && b.lo >= 0.0 {
-                let p = b.lo as i32;
-                let ends = [a.lo.powi(p), a.hi.powi(p)];
-                let mut r = Interval::new(ends[0].min(ends[1]), ends[0].max(ends[1]));
-                if p % 2 == 0 && a.lo < 0.0 && a.hi > 0.0 {
+                // A whole exponent, kept in floating point: its parity decides the shape
+                // (an exponent of 2^31 or more does not fit an i32).
+                let p = b.lo;
+                let even = (p / 2.0).fract() == 0.0;
+                let mut r = Interval::spanning(&[a.lo.powf(p), a.hi.powf(p)]);
+                if even && a.lo < 0.0 && a.hi > 0.0 {
                     r = r.union(Interval::point(0.0));
                 }
-                r
+                r.widened()
             } else {
                 ALL
             }

@@ -23,6 +23,8 @@ pub mod interval;
 pub mod linalg;
 pub mod node;
 pub mod noise;
+#[cfg(test)]
+mod op_tests;
 pub mod program;
 mod sampler;
 mod substitution;
