@@ -27,6 +27,7 @@ pub mod noise;
 mod op_tests;
 pub mod program;
 mod sampler;
+pub mod ssa;
 mod substitution;
 #[cfg(test)]
 mod tests;
