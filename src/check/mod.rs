@@ -8,6 +8,8 @@
 //! a function body sees its parameters, its locals, and the global variables declared before
 //! the function in the source.
 
+#[cfg(test)]
+mod agreement;
 mod expr;
 mod stmt;
 

@@ -9,11 +9,12 @@
 //! few thousand boxes per level, and stops refining when that budget would be exceeded, so it
 //! always ends quickly with a bound that is conservative, if not always tight.
 
-use crate::field::node::{self, BinOp, Kernel, MathFn, NodeRef, Op};
+use crate::field::node::{BinOp, Kernel, MathFn, NodeRef};
 use crate::field::noise;
+use crate::field::ssa::{Index, Inst, Ssa};
 use crate::sample::Aabb;
 use glam::DVec3;
-use std::collections::HashMap;
+use std::sync::Arc;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Interval {
@@ -66,18 +67,63 @@ impl Interval {
         )
     }
 
-    fn recip(self) -> Interval {
-        if self.lo > 0.0 || self.hi < 0.0 {
-            Interval::new(1.0 / self.hi, 1.0 / self.lo)
-        } else {
-            ALL
+    /// `self / o`, from the quotients of the ends: each is rounded once, as the point
+    /// division is, so the bounds are those of the values the tape computes. (A reciprocal
+    /// times the dividend rounds twice and can land one unit in the last place inside.)
+    fn div(self, o: Interval) -> Interval {
+        if self.is_zero() {
+            return Interval::point(0.0);
         }
+        if !(o.lo > 0.0 || o.hi < 0.0) {
+            return ALL;
+        }
+        let q = [
+            self.lo / o.lo,
+            self.lo / o.hi,
+            self.hi / o.lo,
+            self.hi / o.hi,
+        ];
+        Interval::spanning(&q)
+    }
+
+    /// The smallest interval holding `values`; everything if one is NaN.
+    fn spanning(values: &[f64]) -> Interval {
+        if values.iter().any(|v| v.is_nan()) {
+            return ALL;
+        }
+        Interval::new(
+            values.iter().copied().fold(f64::INFINITY, f64::min),
+            values.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        )
     }
 
     fn monotone(self, f: impl Fn(f64) -> f64) -> Interval {
         Interval::new(f(self.lo), f(self.hi))
     }
+
+    /// Wider by one unit in the last place at each non-zero finite end. The library's exp,
+    /// ln, pow, sin and inverse trigonometric functions are accurate to within an ulp but not
+    /// always correctly rounded, so a value inside the box may round one step past the value
+    /// at its end; zeros (exp of -inf, ln 1, sin 0) are exact and stay.
+    fn widened(self) -> Interval {
+        let out = |v: f64, up: bool| match (v == 0.0 || !v.is_finite(), up) {
+            (true, _) => v,
+            (false, true) => v.next_up(),
+            (false, false) => v.next_down(),
+        };
+        Interval::new(out(self.lo, false), out(self.hi, true))
+    }
+
+    fn clamped(self, lo: f64, hi: f64) -> Interval {
+        Interval::new(self.lo.max(lo), self.hi.min(hi))
+    }
 }
+
+/// Largest magnitude at which the narrow rule for sin and cos finds crests by arithmetic: the
+/// crest `(k + 1/2)π` is then placed to within 1e-9, so its value is 1 to far below an ulp.
+/// Farther out the crests computed in floating point drift from the true ones by whole
+/// fractions of a period.
+const NARROW_TRIG_REACH: f64 = 1048576.0;
 
 fn unary(m: MathFn, a: Interval) -> Interval {
     match m {
@@ -91,10 +137,11 @@ fn unary(m: MathFn, a: Interval) -> Interval {
             }
         }
         MathFn::Sqrt if a.lo >= 0.0 => a.monotone(f64::sqrt),
-        MathFn::Exp => a.monotone(f64::exp),
-        MathFn::Log if a.lo > 0.0 => a.monotone(f64::ln),
+        MathFn::Exp => a.monotone(f64::exp).widened(),
+        MathFn::Log if a.lo > 0.0 => a.monotone(f64::ln).widened(),
         MathFn::Sin | MathFn::Cos => {
-            if a.hi - a.lo < 1.0 && a.lo.is_finite() && a.hi.is_finite() {
+            let reach = a.lo.abs().max(a.hi.abs());
+            if a.hi - a.lo < 1.0 && reach < NARROW_TRIG_REACH {
                 // Narrow: the extremes are at the ends or at a crest inside.
                 let f = if m == MathFn::Sin { f64::sin } else { f64::cos };
                 let mut r = Interval::new(f(a.lo).min(f(a.hi)), f(a.lo).max(f(a.hi)));
@@ -106,17 +153,17 @@ fn unary(m: MathFn, a: Interval) -> Interval {
                     r = r.union(Interval::point(f(crest(k))));
                     k += 1.0;
                 }
-                r
+                r.widened().clamped(-1.0, 1.0)
             } else {
                 Interval::new(-1.0, 1.0)
             }
         }
-        MathFn::Asin => Interval::new(a.lo.max(-1.0), a.hi.min(1.0)).monotone(f64::asin),
+        MathFn::Asin => a.clamped(-1.0, 1.0).monotone(f64::asin).widened(),
         MathFn::Acos => {
-            let c = Interval::new(a.lo.max(-1.0), a.hi.min(1.0));
-            Interval::new(c.hi.acos(), c.lo.acos())
+            let c = a.clamped(-1.0, 1.0);
+            Interval::new(c.hi.acos(), c.lo.acos()).widened()
         }
-        MathFn::Atan => a.monotone(f64::atan),
+        MathFn::Atan => a.monotone(f64::atan).widened(),
         MathFn::Floor => a.monotone(f64::floor),
         MathFn::Ceil => a.monotone(f64::ceil),
         MathFn::Fract => {
@@ -137,9 +184,9 @@ fn binary(op: BinOp, a: Interval, b: Interval) -> Interval {
         BinOp::Add => Interval::new(a.lo + b.lo, a.hi + b.hi),
         BinOp::Sub => Interval::new(a.lo - b.hi, a.hi - b.lo),
         BinOp::Mul => a.mul(b),
-        BinOp::Div => a.mul(b.recip()),
+        BinOp::Div => a.div(b),
         BinOp::GuardedDiv => {
-            let q = a.mul(b.recip());
+            let q = a.div(b);
             if b.lo <= 0.0 && b.hi >= 0.0 {
                 // Zero is a possible value where the divisor vanishes.
                 q.union(Interval::point(0.0))
@@ -149,20 +196,30 @@ fn binary(op: BinOp, a: Interval, b: Interval) -> Interval {
         }
         BinOp::Min => Interval::new(a.lo.min(b.lo), a.hi.min(b.hi)),
         BinOp::Max => Interval::new(a.lo.max(b.lo), a.hi.max(b.hi)),
-        BinOp::Atan2 => Interval::new(-std::f64::consts::PI, std::f64::consts::PI),
+        BinOp::Atan2 => Interval::point(std::f64::consts::PI)
+            .widened()
+            .union(Interval::point(-std::f64::consts::PI).widened()),
         BinOp::Pow => {
             if a.lo > 0.0 {
-                // x^y = exp(y ln x), monotone in each factor's ends.
-                let ln = a.monotone(f64::ln);
-                unary(MathFn::Exp, ln.mul(b))
+                // For x > 0, x^y is monotone in each argument, so its extremes over the box
+                // are at the corners; `powf` there is what the tape computes.
+                let corners = [
+                    a.lo.powf(b.lo),
+                    a.lo.powf(b.hi),
+                    a.hi.powf(b.lo),
+                    a.hi.powf(b.hi),
+                ];
+                Interval::spanning(&corners).widened()
             } else if b.lo == b.hi && b.lo.fract() == 0.0 && b.lo >= 0.0 {
-                let p = b.lo as i32;
-                let ends = [a.lo.powi(p), a.hi.powi(p)];
-                let mut r = Interval::new(ends[0].min(ends[1]), ends[0].max(ends[1]));
-                if p % 2 == 0 && a.lo < 0.0 && a.hi > 0.0 {
+                // A whole exponent, kept in floating point: its parity decides the shape
+                // (an exponent of 2^31 or more does not fit an i32).
+                let p = b.lo;
+                let even = (p / 2.0).fract() == 0.0;
+                let mut r = Interval::spanning(&[a.lo.powf(p), a.hi.powf(p)]);
+                if even && a.lo < 0.0 && a.hi > 0.0 {
                     r = r.union(Interval::point(0.0));
                 }
-                r
+                r.widened()
             } else {
                 ALL
             }
@@ -175,106 +232,86 @@ pub fn ranges(roots: &[NodeRef], region: &Aabb) -> Vec<Interval> {
     IntervalTape::new(roots).ranges(region)
 }
 
-/// A node graph flattened once for repeated interval evaluation: each step names its operands
-/// by position, so evaluating a box is one pass over a vector. Cache fills ask for the range of
-/// every brick and the support search for thousands of boxes; neither should walk and hash the
-/// graph each time.
+/// A field's linear form ready for repeated interval evaluation: evaluating a box is one pass
+/// over the instructions, each result stored at its instruction's index. Cache fills ask for
+/// the range of every brick and the support search for thousands of boxes; neither should walk
+/// and hash the graph each time.
 #[derive(Clone, Debug)]
 pub struct IntervalTape {
-    steps: Vec<Step>,
-    roots: Vec<usize>,
+    ssa: Arc<Ssa>,
+    /// For each kernel instruction, its slot among the kernels' output lists.
+    slot_of: Vec<u32>,
     kernels: usize,
-}
-
-#[derive(Clone, Debug)]
-enum Step {
-    Const(f64),
-    X,
-    Y,
-    Z,
-    Unary(MathFn, usize),
-    Binary(BinOp, usize, usize),
-    Select(usize, usize, usize),
-    /// The kernel's node, its argument steps, and its slot among the kernels.
-    Kernel(NodeRef, Vec<usize>, usize),
-    /// Output `index` of the kernel in `slot`.
-    Output {
-        slot: usize,
-        index: usize,
-    },
 }
 
 impl IntervalTape {
     pub fn new(roots: &[NodeRef]) -> IntervalTape {
-        let order = node::postorder(roots);
-        let position: HashMap<u64, usize> =
-            order.iter().enumerate().map(|(i, n)| (n.id, i)).collect();
-        let at = |n: &NodeRef| position[&n.id];
-        let mut slot_of: HashMap<u64, usize> = HashMap::new();
-        let mut steps = Vec::with_capacity(order.len());
-        for n in &order {
-            steps.push(match &n.op {
-                Op::Const(c) => Step::Const(*c),
-                Op::X => Step::X,
-                Op::Y => Step::Y,
-                Op::Z => Step::Z,
-                Op::Unary(m, a) => Step::Unary(*m, at(a)),
-                Op::Binary(op, a, b) => Step::Binary(*op, at(a), at(b)),
-                Op::Select(c, a, b) => Step::Select(at(c), at(a), at(b)),
-                Op::Kernel(_, args) => {
-                    let slot = slot_of.len();
-                    slot_of.insert(n.id, slot);
-                    Step::Kernel(n.clone(), args.iter().map(at).collect(), slot)
+        IntervalTape::from_ssa(Arc::new(Ssa::new(roots)))
+    }
+
+    /// The tape of a linear form, sharing it.
+    pub fn from_ssa(ssa: Arc<Ssa>) -> IntervalTape {
+        let mut kernels = 0;
+        let slot_of = ssa
+            .insts
+            .iter()
+            .map(|inst| match inst {
+                Inst::Kernel(..) => {
+                    kernels += 1;
+                    kernels as u32 - 1
                 }
-                Op::Output(k, i) => Step::Output {
-                    slot: slot_of[&k.id],
-                    index: *i as usize,
-                },
-            });
-        }
+                _ => u32::MAX,
+            })
+            .collect();
         IntervalTape {
-            steps,
-            roots: roots.iter().map(at).collect(),
-            kernels: slot_of.len(),
+            ssa,
+            slot_of,
+            kernels,
         }
+    }
+
+    /// The linear form evaluated.
+    pub fn ssa(&self) -> &Arc<Ssa> {
+        &self.ssa
     }
 
     /// Intervals of the roots over positions in `region`.
     pub fn ranges(&self, region: &Aabb) -> Vec<Interval> {
-        let mut iv: Vec<Interval> = Vec::with_capacity(self.steps.len());
+        let insts = &self.ssa.insts;
+        let mut iv: Vec<Interval> = Vec::with_capacity(insts.len());
         let mut kernel_iv: Vec<Vec<Interval>> = vec![Vec::new(); self.kernels];
-        for step in &self.steps {
-            let r = match step {
-                Step::Const(c) => Interval::point(*c),
-                Step::X => Interval::new(region.min.x, region.max.x),
-                Step::Y => Interval::new(region.min.y, region.max.y),
-                Step::Z => Interval::new(region.min.z, region.max.z),
-                Step::Unary(m, a) => unary(*m, iv[*a]),
-                Step::Binary(op, a, b) => binary(*op, iv[*a], iv[*b]),
-                Step::Select(c, a, b) => {
-                    let c = iv[*c];
+        for (i, inst) in insts.iter().enumerate() {
+            let at = |k: Index| iv[k as usize];
+            let r = match inst {
+                Inst::Const(c) => Interval::point(*c),
+                Inst::X => Interval::new(region.min.x, region.max.x),
+                Inst::Y => Interval::new(region.min.y, region.max.y),
+                Inst::Z => Interval::new(region.min.z, region.max.z),
+                Inst::Unary(m, [a]) => unary(*m, at(*a)),
+                Inst::Binary(op, [a, b]) => binary(*op, at(*a), at(*b)),
+                Inst::Select([c, a, b]) => {
+                    let c = at(*c);
                     if c.lo >= 0.0 {
-                        iv[*a]
+                        at(*a)
                     } else if c.hi < 0.0 {
-                        iv[*b]
+                        at(*b)
                     } else {
-                        iv[*a].union(iv[*b])
+                        at(*a).union(at(*b))
                     }
                 }
-                Step::Kernel(node, args, slot) => {
-                    if let Op::Kernel(k, _) = &node.op {
-                        let args: Vec<Interval> = args.iter().map(|&a| iv[a]).collect();
-                        kernel_iv[*slot] = kernel_ranges(k, &args);
-                    }
+                Inst::Kernel(k, args) => {
+                    let args: Vec<Interval> = args.iter().map(|&a| at(a)).collect();
+                    kernel_iv[self.slot_of[i] as usize] = kernel_ranges(k, &args);
                     ALL
                 }
-                Step::Output { slot, index } => {
-                    kernel_iv[*slot].get(*index).copied().unwrap_or(ALL)
-                }
+                Inst::Output([k], index) => kernel_iv[self.slot_of[*k as usize] as usize]
+                    .get(*index as usize)
+                    .copied()
+                    .unwrap_or(ALL),
             };
             iv.push(r);
         }
-        self.roots.iter().map(|&r| iv[r]).collect()
+        self.ssa.roots.iter().map(|&r| iv[r as usize]).collect()
     }
 }
 
@@ -320,13 +357,17 @@ fn kernel_ranges(kernel: &Kernel, args: &[Interval]) -> Vec<Interval> {
 
 /// A box outside which every root is exactly zero, or `None` if no finite box was found.
 pub fn support(roots: &[NodeRef]) -> Option<Aabb> {
-    let structural = structural_support(roots);
+    support_of(&IntervalTape::new(roots))
+}
+
+/// `support` of the field whose interval tape is `tape`.
+pub fn support_of(tape: &IntervalTape) -> Option<Aabb> {
+    let structural = structural_support(tape.ssa());
     let start = match structural {
         Some(b) if b.is_empty() => return Some(b),
         Some(b) if b.is_finite() => b,
         _ => Aabb::new(DVec3::splat(-1e5), DVec3::splat(1e5)),
     };
-    let tape = IntervalTape::new(roots);
     let maybe_nonzero = |b: &Aabb| tape.ranges(b).iter().any(|r| !r.is_zero());
     if !maybe_nonzero(&start) {
         return Some(Aabb::new(DVec3::ZERO, DVec3::ZERO));
@@ -386,46 +427,50 @@ fn union_of(boxes: &[Aabb]) -> Aabb {
 }
 
 /// Supports known from the graph's shape alone. `None` means "everywhere".
-fn structural_support(roots: &[NodeRef]) -> Option<Aabb> {
-    let order = node::postorder(roots);
+fn structural_support(ssa: &Ssa) -> Option<Aabb> {
+    let insts = &ssa.insts;
     let empty = Aabb::new(DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-    let mut s: HashMap<u64, Option<Aabb>> = HashMap::with_capacity(order.len());
+    let mut s: Vec<Option<Aabb>> = Vec::with_capacity(insts.len());
     let union = |a: Option<Aabb>, b: Option<Aabb>| match (a, b) {
         (Some(a), Some(b)) => Some(a.union(&b)),
         _ => None,
     };
-    let is_position =
-        |n: &NodeRef, axis: usize| matches!((&n.op, axis), (Op::X, 0) | (Op::Y, 1) | (Op::Z, 2));
-    for n in &order {
-        let get = |c: &NodeRef| s.get(&c.id).copied().flatten();
-        let r = match &n.op {
-            Op::Const(c) => (*c == 0.0).then_some(empty),
-            Op::X | Op::Y | Op::Z => None,
-            Op::Unary(m, a) => match m {
+    let is_position = |i: Index, axis: usize| {
+        matches!(
+            (&insts[i as usize], axis),
+            (Inst::X, 0) | (Inst::Y, 1) | (Inst::Z, 2)
+        )
+    };
+    for inst in insts {
+        let get = |c: Index| s[c as usize];
+        let r = match inst {
+            Inst::Const(c) => (*c == 0.0).then_some(empty),
+            Inst::X | Inst::Y | Inst::Z => None,
+            Inst::Unary(m, [a]) => match m {
                 MathFn::Abs
                 | MathFn::Sqrt
                 | MathFn::Sin
                 | MathFn::Tan
                 | MathFn::Asin
                 | MathFn::Atan
-                | MathFn::Sign => get(a),
+                | MathFn::Sign => get(*a),
                 _ => None,
             },
-            Op::Binary(op, a, b) => match op {
-                BinOp::Mul => match (get(a), get(b)) {
+            Inst::Binary(op, [a, b]) => match op {
+                BinOp::Mul => match (get(*a), get(*b)) {
                     (Some(x), Some(y)) => Some(x.intersection(&y)),
                     (Some(x), None) | (None, Some(x)) => Some(x),
                     (None, None) => None,
                 },
-                BinOp::Div | BinOp::GuardedDiv => get(a),
-                BinOp::Add | BinOp::Sub | BinOp::Min | BinOp::Max => union(get(a), get(b)),
+                BinOp::Div | BinOp::GuardedDiv => get(*a),
+                BinOp::Add | BinOp::Sub | BinOp::Min | BinOp::Max => union(get(*a), get(*b)),
                 _ => None,
             },
-            Op::Select(_, a, b) => union(get(a), get(b)),
-            Op::Kernel(..) => None,
-            Op::Output(k, i) => match &k.op {
-                Op::Kernel(Kernel::GridValue { grid, .. }, args)
-                    if (0..3).all(|a| is_position(&args[a], a))
+            Inst::Select([_, a, b]) => union(get(*a), get(*b)),
+            Inst::Kernel(..) => None,
+            Inst::Output([k], i) => match &insts[*k as usize] {
+                Inst::Kernel(Kernel::GridValue { grid, .. }, args)
+                    if (0..3).all(|a| is_position(args[a], a))
                         && grid.background().get(*i as usize) == Some(&0.0) =>
                 {
                     Some(grid.bounds())
@@ -433,7 +478,11 @@ fn structural_support(roots: &[NodeRef]) -> Option<Aabb> {
                 _ => None,
             },
         };
-        s.insert(n.id, r);
+        s.push(r);
     }
-    roots.iter().map(|r| s[&r.id]).reduce(union).flatten()
+    ssa.roots
+        .iter()
+        .map(|&r| s[r as usize])
+        .reduce(union)
+        .flatten()
 }

@@ -24,8 +24,11 @@ pub mod linalg;
 pub mod nacelle;
 pub mod node;
 pub mod noise;
+#[cfg(test)]
+mod op_tests;
 pub mod program;
 mod sampler;
+pub mod ssa;
 mod substitution;
 #[cfg(test)]
 mod tests;

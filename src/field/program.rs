@@ -8,10 +8,10 @@
 //! instruction always distinct from its operands; that keeps the working set of a deep graph in
 //! a few hundred kilobytes per thread, inside the cache, however many nodes it has.
 
-use crate::field::node::{self, BinOp, Kernel, MathFn, NodeRef, Op};
+use crate::field::node::{BinOp, Kernel, MathFn, NodeRef};
 use crate::field::noise::NoiseKind;
+use crate::field::ssa::{Index, Inst, Ssa};
 use crate::sample::{GridSource, Interp};
-use std::collections::HashMap;
 use std::sync::Arc;
 
 /// A register index.
@@ -79,52 +79,52 @@ pub struct Program {
 
 impl Program {
     pub fn compile(roots: &[NodeRef]) -> Program {
-        let order = node::postorder(roots);
-        // Where each value is read for the last time (in tape order). Outputs of kernels are
-        // "defined" at their kernel, so they are found through the kernel's users.
-        let mut last_use: HashMap<u64, usize> = HashMap::new();
-        let mut outputs_of: HashMap<u64, Vec<(usize, u64)>> = HashMap::new();
-        for (i, n) in order.iter().enumerate() {
-            match &n.op {
-                Op::Output(k, index) => {
-                    outputs_of
-                        .entry(k.id)
-                        .or_default()
-                        .push((*index as usize, n.id));
+        Program::from_ssa(&Ssa::new(roots))
+    }
+
+    /// The register program of a linear form.
+    pub fn from_ssa(ssa: &Ssa) -> Program {
+        let insts = &ssa.insts;
+        let count = insts.len();
+        // Where each value is read for the last time (in tape order; `None`: never read).
+        // Outputs of kernels are "defined" at their kernel, so they are found through the
+        // kernel's users.
+        let mut last_use: Vec<Option<usize>> = vec![None; count];
+        let mut outputs_of: Vec<Vec<(usize, Index)>> = vec![Vec::new(); count];
+        for (i, inst) in insts.iter().enumerate() {
+            match inst {
+                Inst::Output([k], index) => {
+                    outputs_of[*k as usize].push((*index as usize, i as Index));
                 }
                 _ => {
-                    for c in n.children() {
-                        last_use.insert(c.id, i);
+                    for &c in inst.operands() {
+                        last_use[c as usize] = Some(i);
                     }
                 }
             }
         }
-        for r in roots {
-            last_use.insert(r.id, usize::MAX);
+        for &r in &ssa.roots {
+            last_use[r as usize] = Some(usize::MAX);
         }
 
-        let mut reg_of: HashMap<u64, Reg> = HashMap::new();
+        let mut reg_of: Vec<Option<Reg>> = vec![None; count];
         let mut constants = Vec::new();
         let mut registers: usize = 3;
-        for n in &order {
-            match &n.op {
-                Op::X => {
-                    reg_of.insert(n.id, 0);
-                }
-                Op::Y => {
-                    reg_of.insert(n.id, 1);
-                }
-                Op::Z => {
-                    reg_of.insert(n.id, 2);
-                }
-                Op::Const(c) => {
-                    reg_of.insert(n.id, registers as Reg);
+        for (i, inst) in insts.iter().enumerate() {
+            match inst {
+                Inst::X => reg_of[i] = Some(0),
+                Inst::Y => reg_of[i] = Some(1),
+                Inst::Z => reg_of[i] = Some(2),
+                Inst::Const(c) => {
+                    reg_of[i] = Some(registers as Reg);
                     constants.push((registers as Reg, *c));
                     registers += 1;
                 }
                 _ => {}
             }
         }
+        // Inputs and constants hold registers 0 .. first_temporary for the whole tape.
+        let first_temporary = registers;
 
         let mut free: Vec<Reg> = Vec::new();
         let mut allocate = |free: &mut Vec<Reg>| -> Reg {
@@ -133,97 +133,76 @@ impl Program {
                 (registers - 1) as Reg
             })
         };
+        let reg = |reg_of: &[Option<Reg>], i: Index| -> Reg {
+            reg_of[i as usize].expect("operands are computed before their users")
+        };
         let mut instrs = Vec::new();
         let mut grid_scratch = 0;
-        for (i, n) in order.iter().enumerate() {
-            let instr = match &n.op {
-                Op::X | Op::Y | Op::Z | Op::Const(_) | Op::Output(..) => continue,
-                Op::Unary(f, a) => {
-                    let a = reg_of[&a.id];
+        let mut released: Vec<Index> = Vec::new();
+        for (i, inst) in insts.iter().enumerate() {
+            let instr = match inst {
+                Inst::X | Inst::Y | Inst::Z | Inst::Const(_) | Inst::Output(..) => continue,
+                Inst::Unary(f, [a]) => {
+                    let a = reg(&reg_of, *a);
                     let dst = allocate(&mut free);
-                    reg_of.insert(n.id, dst);
+                    reg_of[i] = Some(dst);
                     Instr::Unary { f: *f, dst, a }
                 }
-                Op::Binary(op, a, b) => {
-                    let (a, b) = (reg_of[&a.id], reg_of[&b.id]);
+                Inst::Binary(op, [a, b]) => {
+                    let (a, b) = (reg(&reg_of, *a), reg(&reg_of, *b));
                     let dst = allocate(&mut free);
-                    reg_of.insert(n.id, dst);
+                    reg_of[i] = Some(dst);
                     Instr::Binary { op: *op, dst, a, b }
                 }
-                Op::Select(c, a, b) => {
-                    let (c, a, b) = (reg_of[&c.id], reg_of[&a.id], reg_of[&b.id]);
+                Inst::Select([c, a, b]) => {
+                    let (c, a, b) = (reg(&reg_of, *c), reg(&reg_of, *a), reg(&reg_of, *b));
                     let dst = allocate(&mut free);
-                    reg_of.insert(n.id, dst);
+                    reg_of[i] = Some(dst);
                     Instr::Select { dst, c, a, b }
                 }
-                Op::Kernel(kernel, args) => {
-                    let arg_regs: Vec<Reg> = args.iter().map(|a| reg_of[&a.id]).collect();
+                Inst::Kernel(kernel, args) => {
+                    let arg_regs: Vec<Reg> = args.iter().map(|&a| reg(&reg_of, a)).collect();
                     let mut outs = vec![UNUSED; kernel.outputs()];
-                    for (index, out_id) in outputs_of.get(&n.id).into_iter().flatten() {
-                        if *index < outs.len() {
+                    for &(index, out) in &outputs_of[i] {
+                        if index < outs.len() {
                             let r = allocate(&mut free);
-                            outs[*index] = r;
-                            reg_of.insert(*out_id, r);
+                            outs[index] = r;
+                            reg_of[out as usize] = Some(r);
                         }
                     }
-                    let at = || [arg_regs[0], arg_regs[1], arg_regs[2]];
-                    match kernel {
-                        Kernel::Noise { kind, seed } => Instr::Noise {
-                            kind: *kind,
-                            seed: *seed,
-                            at: at(),
-                            outs: outs.try_into().unwrap_or([UNUSED; 10]),
-                        },
-                        Kernel::GridValue { grid, interp, .. }
-                        | Kernel::GridGradient { grid, interp } => {
-                            let gradient = matches!(kernel, Kernel::GridGradient { .. });
-                            grid_scratch = grid_scratch.max(kernel.outputs());
-                            Instr::Grid {
-                                grid: grid.clone(),
-                                interp: *interp,
-                                gradient,
-                                at: at(),
-                                outs,
-                            }
-                        }
-                        Kernel::PseudoInverse => Instr::PseudoInverse {
-                            m: std::array::from_fn(|k| arg_regs[k]),
-                            outs: outs.try_into().unwrap_or([UNUSED; 9]),
-                        },
-                    }
+                    kernel_instr(kernel, &arg_regs, outs, &mut grid_scratch)
                 }
             };
             instrs.push(instr);
             // Operands whose last reader this was go back to the pool; inputs and constants
             // keep their registers. Freed only after the destination was taken, so a
             // destination never aliases an operand.
-            let mut released: Vec<u64> = Vec::new();
-            for c in n.children() {
-                if last_use.get(&c.id) == Some(&i) && !released.contains(&c.id) {
-                    released.push(c.id);
+            released.clear();
+            for &c in inst.operands() {
+                if last_use[c as usize] == Some(i) && !released.contains(&c) {
+                    released.push(c);
                 }
             }
-            for id in released {
-                if let Some(&r) = reg_of.get(&id)
-                    && r as usize >= 3
-                    && !constants.iter().any(|(cr, _)| *cr == r)
+            for &c in &released {
+                if let Some(r) = reg_of[c as usize]
+                    && r as usize >= first_temporary
                 {
                     free.push(r);
                 }
             }
             // Kernel outputs that nothing reads after the kernel are free at once.
-            if let Op::Kernel(..) = &n.op {
-                for (_, out_id) in outputs_of.get(&n.id).into_iter().flatten() {
-                    if !last_use.contains_key(out_id)
-                        && let Some(&r) = reg_of.get(out_id)
+            if let Inst::Kernel(..) = inst {
+                for &(_, out) in &outputs_of[i] {
+                    if last_use[out as usize].is_none()
+                        && let Some(r) = reg_of[out as usize]
                     {
                         free.push(r);
                     }
                 }
             }
         }
-        let outputs: Vec<Reg> = roots.iter().map(|r| reg_of[&r.id]).collect();
-        let emits = emit_schedule(&instrs, &outputs);
+        let outputs: Vec<Reg> = ssa.roots.iter().map(|&r| reg(&reg_of, r)).collect();
+        let emits = emit_schedule(&instrs, &outputs, registers);
         Program {
             instrs,
             registers,
@@ -231,8 +210,36 @@ impl Program {
             outputs,
             emits,
             grid_scratch,
-            nodes: order.len(),
+            nodes: count,
         }
+    }
+}
+
+/// The instruction of one kernel, reading `args` and writing `outs`.
+fn kernel_instr(kernel: &Kernel, args: &[Reg], outs: Vec<Reg>, grid_scratch: &mut usize) -> Instr {
+    let at = || [args[0], args[1], args[2]];
+    match kernel {
+        Kernel::Noise { kind, seed } => Instr::Noise {
+            kind: *kind,
+            seed: *seed,
+            at: at(),
+            outs: outs.try_into().unwrap_or([UNUSED; 10]),
+        },
+        Kernel::GridValue { grid, interp, .. } | Kernel::GridGradient { grid, interp } => {
+            let gradient = matches!(kernel, Kernel::GridGradient { .. });
+            *grid_scratch = (*grid_scratch).max(kernel.outputs());
+            Instr::Grid {
+                grid: grid.clone(),
+                interp: *interp,
+                gradient,
+                at: at(),
+                outs,
+            }
+        }
+        Kernel::PseudoInverse => Instr::PseudoInverse {
+            m: std::array::from_fn(|k| args[k]),
+            outs: outs.try_into().unwrap_or([UNUSED; 9]),
+        },
     }
 }
 
@@ -252,19 +259,19 @@ impl Instr {
 
 /// For each output, the last instruction writing its register: an output's register stays live
 /// to the end of the tape, so that write is its final value.
-fn emit_schedule(instrs: &[Instr], outputs: &[Reg]) -> Vec<(usize, usize)> {
-    let mut last_write: HashMap<Reg, usize> = HashMap::new();
+fn emit_schedule(instrs: &[Instr], outputs: &[Reg], registers: usize) -> Vec<(usize, usize)> {
+    let mut last_write: Vec<Option<usize>> = vec![None; registers];
     for (k, instr) in instrs.iter().enumerate() {
         for r in instr.writes() {
             if r != UNUSED {
-                last_write.insert(r, k);
+                last_write[r as usize] = Some(k);
             }
         }
     }
     let mut emits: Vec<(usize, usize)> = outputs
         .iter()
         .enumerate()
-        .map(|(c, r)| (last_write.get(r).copied().unwrap_or(instrs.len()), c))
+        .map(|(c, &r)| (last_write[r as usize].unwrap_or(instrs.len()), c))
         .collect();
     emits.sort_unstable();
     emits

@@ -9,8 +9,9 @@
 use crate::failure::{Failure, Outcome};
 use crate::field::eval::{Evaluator, Precision};
 use crate::field::interval;
-use crate::field::node::{Kernel, NodeRef, Op};
+use crate::field::node::{Kernel, NodeRef};
 use crate::field::program::Program;
+use crate::field::ssa::{Inst, Ssa};
 use crate::field::{Field, FieldKind, FieldValue};
 use crate::grid::domain::Domain;
 use crate::sample::{Aabb, BLOCK, BlockEval, FieldSampler, GridSource};
@@ -18,11 +19,11 @@ use glam::{DMat3, DVec3};
 use rayon::prelude::*;
 use std::sync::{Arc, OnceLock};
 
-/// A field compiled for evaluation.
+/// A field compiled for evaluation: its graph flattened once into a linear form, from which
+/// the register program, the interval tape and the support search are all derived.
 pub struct CompiledField {
     program: Program,
-    roots: Vec<NodeRef>,
-    /// The roots' graph flattened for the interval ranges asked of every brick.
+    /// The linear form, for the interval ranges asked of every brick and the support search.
     intervals: interval::IntervalTape,
     support: OnceLock<Option<Aabb>>,
     /// Every grid the roots read, for solving them ahead of an output.
@@ -31,12 +32,12 @@ pub struct CompiledField {
 
 impl CompiledField {
     pub fn new(field: &Field) -> CompiledField {
+        let ssa = Arc::new(Ssa::new(field.components()));
         CompiledField {
-            program: Program::compile(field.components()),
-            roots: field.components().to_vec(),
-            intervals: interval::IntervalTape::new(field.components()),
+            program: Program::from_ssa(&ssa),
+            grids: grids_of(&ssa),
+            intervals: interval::IntervalTape::from_ssa(ssa),
             support: OnceLock::new(),
-            grids: grids_read(field.components()),
         }
     }
 
@@ -113,7 +114,7 @@ impl BlockEval for CompiledEval<'_> {
 
 impl FieldSampler for CompiledField {
     fn width(&self) -> usize {
-        self.roots.len()
+        self.program.outputs.len()
     }
 
     fn evaluator(&self) -> Box<dyn BlockEval + '_> {
@@ -123,7 +124,9 @@ impl FieldSampler for CompiledField {
     }
 
     fn bounds(&self) -> Option<Aabb> {
-        *self.support.get_or_init(|| interval::support(&self.roots))
+        *self
+            .support
+            .get_or_init(|| interval::support_of(&self.intervals))
     }
 
     fn grids(&self) -> Vec<Arc<dyn GridSource>> {
@@ -141,11 +144,16 @@ impl FieldSampler for CompiledField {
 
 /// The grids that the graph under `roots` reads, each once, in the order first met.
 pub fn grids_read(roots: &[NodeRef]) -> Vec<Arc<dyn GridSource>> {
+    grids_of(&Ssa::new(roots))
+}
+
+/// The grids a linear form reads, each once, in the order first met.
+fn grids_of(ssa: &Ssa) -> Vec<Arc<dyn GridSource>> {
     let mut seen = std::collections::HashSet::new();
     let mut grids = Vec::new();
-    for node in crate::field::node::postorder(roots) {
-        if let Op::Kernel(Kernel::GridValue { grid, .. } | Kernel::GridGradient { grid, .. }, _) =
-            &node.op
+    for inst in &ssa.insts {
+        if let Inst::Kernel(Kernel::GridValue { grid, .. } | Kernel::GridGradient { grid, .. }, _) =
+            inst
             && seen.insert(grid.identity())
         {
             grids.push(grid.clone());
