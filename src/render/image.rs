@@ -132,9 +132,9 @@ pub fn write_image_with(path: &Path, image: &Image, options: &ExrOptions) -> Out
         return Ok(clamped);
     }
     match extension.as_deref() {
-        Some("exr") => {
-            atomically(path, |file| write_exr(file, image, options, None, &mut clamped))?
-        }
+        Some("exr") => atomically(path, |file| {
+            write_exr(file, image, options, None, &mut clamped)
+        })?,
         Some("png") => atomically(path, |file| write_png(file, image))?,
         _ => Err(Failure::new(format!(
             "cannot tell the image format of '{}'",

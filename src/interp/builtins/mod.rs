@@ -10,8 +10,8 @@ mod geometry;
 pub mod grids;
 mod math;
 mod modeling;
-mod particles;
 mod nacelle;
+mod particles;
 mod rendering;
 mod simulation;
 
