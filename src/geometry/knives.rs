@@ -75,6 +75,9 @@ pub fn cut(l0: &Field, knives: &[Field], domain: &Domain, min_volume: f64) -> Ou
     Ok(out)
 }
 
+/// The lowest and highest cell index (inclusive) along each axis.
+type CellBox = ([usize; 3], [usize; 3]);
+
 /// The sign vectors met at cell centres inside `l0`, each with the box of cell indices where
 /// it occurs.
 fn regions(
@@ -82,8 +85,8 @@ fn regions(
     knives: &[Field],
     domain: &Domain,
     [nx, ny, nz]: [usize; 3],
-) -> Outcome<BTreeMap<u64, ([usize; 3], [usize; 3])>> {
-    let mut boxes: BTreeMap<u64, ([usize; 3], [usize; 3])> = BTreeMap::new();
+) -> Outcome<BTreeMap<u64, CellBox>> {
+    let mut boxes: BTreeMap<u64, CellBox> = BTreeMap::new();
     let mut slice = Vec::with_capacity(nx * ny);
     for k in 0..nz {
         slice.clear();
