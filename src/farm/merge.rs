@@ -15,7 +15,7 @@ use exr::prelude::{
     AnyChannel, AnyChannels, AttributeValue, FlatSamples, Image as ExrImage, Layer, Text,
 };
 use std::collections::BTreeMap;
-use std::io::{BufWriter, Cursor};
+use std::io::Cursor;
 use std::path::{Path, PathBuf};
 
 /// Largest band file `felt merge` reads.
@@ -54,7 +54,7 @@ pub fn merge(target: &Path, count: Option<usize>) -> Outcome<()> {
         bands.push(read_band(&path, band)?);
     }
     check_bands(&bands)?;
-    write_merged(target, bands)
+    write_merged(&crate::output::target(target), bands)
 }
 
 /// The band count of the bands found beside `target`.
@@ -258,10 +258,12 @@ fn write_merged(target: &Path, bands: Vec<BandFile>) -> Outcome<()> {
     }
     let merged = ExrImage::new(attributes, layer);
     crate::output::write_atomically(target, |file| {
-        merged
-            .write()
-            .to_buffered(BufWriter::new(file))
-            .map_err(|e| e.to_string())
+        crate::render::exr_order::write_sorted(file, |buffer| {
+            merged
+                .write()
+                .to_buffered(buffer)
+                .map_err(|e| e.to_string())
+        })
     })
     .map_err(|e| Failure::new(format!("cannot write image '{}': {e}", target.display())))
 }

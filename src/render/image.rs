@@ -235,10 +235,12 @@ fn write_exr(
     if let Some(placement) = placement {
         placement.apply(&mut encoded);
     }
-    encoded
-        .write()
-        .to_buffered(BufWriter::new(file))
-        .map_err(|e| e.to_string())
+    super::exr_order::write_sorted(file, |buffer| {
+        encoded
+            .write()
+            .to_buffered(buffer)
+            .map_err(|e| e.to_string())
+    })
 }
 
 /// The sRGB transfer curve (OETF) from linear [0, 1].

@@ -17,6 +17,7 @@ mod adaptive;
 pub mod band;
 pub mod camera;
 pub mod exr_header;
+pub mod exr_order;
 pub mod image;
 pub mod light;
 mod lighting;

@@ -110,7 +110,12 @@ pub fn register(r: &mut Registry) {
          (brightness, gamma) compresses emission-only particle renders",
         run_render,
     );
-    r.choices("render", "shadows", "shadows mode", &["cache", "march"]);
+    r.choices(
+        "render",
+        "shadows",
+        "shadows mode",
+        &["cache", "march", "sweep"],
+    );
     r.choices("render", "tonemap", "tone map", &["max1", "log"]);
     r.choices(
         "render",
