@@ -421,7 +421,7 @@ mod tests {
         );
         assert_eq!(
             failure.help.as_deref(),
-            Some("`shadows` takes \"cache\" or \"march\"")
+            Some("`shadows` takes \"cache\", \"march\" or \"sweep\"")
         );
     }
 }
