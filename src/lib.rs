@@ -36,3 +36,5 @@ pub mod sequence;
 pub mod session;
 pub mod study;
 pub mod syntax;
+#[cfg(test)]
+mod test_random;

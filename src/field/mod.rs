@@ -168,6 +168,12 @@ impl Field {
         Field::matrix(std::array::from_fn(|i| node::constant(m.col(i % 3)[i / 3])))
     }
 
+    /// A field that reads a grid trilinearly, with the interpolant's own derivatives: how
+    /// every lazily filled grid (`shape2ls`, `clouddensity`, `pointfield`) is read.
+    pub fn from_linear_grid(grid: Arc<dyn GridSource>) -> Outcome<Field> {
+        Field::from_grid(grid, Interp::Linear, GridDerivative::Interpolant)
+    }
+
     /// A field that reads a grid (a cache, a file, an FFT result).
     pub fn from_grid(
         grid: Arc<dyn GridSource>,

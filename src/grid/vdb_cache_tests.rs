@@ -3,31 +3,7 @@
 
 use super::*;
 
-/// SplitMix64: a small seeded generator, so the domains are the same on every run.
-struct Random(u64);
-
-impl Random {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in [lo, hi).
-    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-
-    fn vector(&mut self, lo: f64, hi: f64) -> DVec3 {
-        DVec3::new(
-            self.uniform(lo, hi),
-            self.uniform(lo, hi),
-            self.uniform(lo, hi),
-        )
-    }
-}
+use crate::test_random::SplitMix as Random;
 
 fn options(name: &str, class: GridClass) -> GridOptions {
     GridOptions {
@@ -42,7 +18,7 @@ fn options(name: &str, class: GridClass) -> GridOptions {
 /// background one cell deep on the low faces (so leaves alone would not give the box back).
 fn random_cache(random: &mut Random, domain: Domain, width: usize) -> Cache {
     let cells = domain.cell_count();
-    let background: Vec<f64> = (0..width).map(|_| random.uniform(-1.0, 1.0)).collect();
+    let background: Vec<f64> = (0..width).map(|_| random.range(-1.0, 1.0)).collect();
     let res = domain.resolution.unwrap();
     let data: Vec<Vec<f32>> = (0..width)
         .map(|c| {
@@ -53,7 +29,7 @@ fn random_cache(random: &mut Random, domain: Domain, width: usize) -> Cache {
                     if shell || random.next().is_multiple_of(4) {
                         background[c] as f32
                     } else {
-                        random.uniform(-10.0, 10.0) as f32
+                        random.range(-10.0, 10.0) as f32
                     }
                 })
                 .collect()
@@ -74,9 +50,9 @@ fn every_domain_comes_back_from_a_vdb_file() {
     let dir = tempfile::tempdir().unwrap();
     let mut random = Random(16);
     for case in 0..60 {
-        let cell = random.uniform(0.01, 2.0);
+        let cell = random.range(0.01, 2.0);
         let cell_z = if case % 3 == 0 {
-            random.uniform(0.01, 2.0)
+            random.range(0.01, 2.0)
         } else {
             cell
         };
@@ -86,7 +62,7 @@ fn every_domain_comes_back_from_a_vdb_file() {
         let origin = random.vector(-100.0, 100.0);
         let orientation = match case % 4 {
             0 => DVec3::ZERO,
-            1 => DVec3::new(0.0, 0.0, random.uniform(-3.1, 3.1)),
+            1 => DVec3::new(0.0, 0.0, random.range(-3.1, 3.1)),
             _ => random.vector(-2.0, 2.0),
         };
         let domain = Domain::with_cells(origin, lengths, orientation, cell, cell_z).unwrap();

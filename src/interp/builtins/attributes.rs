@@ -15,7 +15,7 @@ use crate::geometry::{Attribute, AttributeValue, Mesh, uv_sphere};
 use crate::grid::cache::Cache;
 use crate::interp::registry::{Args, Registry};
 use crate::interp::value::Value;
-use crate::sample::{FieldSampler, FnField, GridDerivative, GridSource, Interp};
+use crate::sample::{FieldSampler, FnField, GridSource};
 use glam::{DMat3, DVec3};
 use std::rc::Rc;
 use std::sync::Arc;
@@ -202,11 +202,7 @@ fn read_attribute(
     );
     let cache = Cache::from_field((**domain).clone(), width, sampler, vec![0.0; width], label)?;
     let grid: Arc<dyn GridSource> = Arc::new(cache);
-    Ok(Value::Field(Field::from_grid(
-        grid,
-        Interp::Linear,
-        GridDerivative::Interpolant,
-    )?))
+    Ok(Value::Field(Field::from_linear_grid(grid)?))
 }
 
 fn array_attribute(items: &[Value]) -> Outcome<Attribute> {

@@ -19,7 +19,7 @@ use crate::grid::profile;
 use crate::interp::Interpreter;
 use crate::interp::registry::{Args, Registry};
 use crate::interp::value::Value;
-use crate::sample::{GridDerivative, GridSource, Interp};
+use crate::sample::GridSource;
 use glam::DVec3;
 use std::rc::Rc;
 use std::sync::Arc;
@@ -120,11 +120,7 @@ pub fn register(r: &mut Registry) {
                 label,
             )?;
             let grid: Arc<dyn GridSource> = Arc::new(cache);
-            Ok(Value::Field(Field::from_grid(
-                grid,
-                Interp::Linear,
-                GridDerivative::Interpolant,
-            )?))
+            Ok(Value::Field(Field::from_linear_grid(grid)?))
         },
     );
     r.add(

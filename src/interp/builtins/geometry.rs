@@ -12,7 +12,7 @@ use crate::geometry::{self, Mesh, MeshDistance};
 use crate::grid::cache::Cache;
 use crate::interp::registry::Registry;
 use crate::interp::value::Value;
-use crate::sample::{FieldSampler, GridDerivative, GridSource, Interp};
+use crate::sample::{FieldSampler, GridSource};
 use std::rc::Rc;
 use std::sync::Arc;
 
@@ -61,11 +61,7 @@ pub fn register(r: &mut Registry) {
             let outside = -d.lengths.length();
             let cache = Cache::from_field((**d).clone(), 1, distance, vec![outside], label)?;
             let grid: Arc<dyn GridSource> = Arc::new(cache);
-            Ok(Value::Field(Field::from_grid(
-                grid,
-                Interp::Linear,
-                GridDerivative::Interpolant,
-            )?))
+            Ok(Value::Field(Field::from_linear_grid(grid)?))
         },
     );
     r.add(

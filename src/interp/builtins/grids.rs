@@ -496,5 +496,5 @@ pub fn resample(field: &Field, grid: &dyn GridSource, label: &str) -> Outcome<Fi
     } else {
         cache
     };
-    Field::from_grid(read, Interp::Linear, GridDerivative::Interpolant)
+    Field::from_linear_grid(read)
 }

@@ -16,7 +16,7 @@ use crate::grid::domain::Domain;
 use crate::interp::Interpreter;
 use crate::interp::registry::{Args, Registry};
 use crate::interp::value::Value;
-use crate::sample::{GridDerivative, GridSource, Interp};
+use crate::sample::GridSource;
 use std::sync::Arc;
 
 pub fn register(r: &mut Registry) {
@@ -116,7 +116,7 @@ fn sampled(field: &Field, domain: &Domain, label: &str) -> Outcome<Field> {
         label.to_string(),
     )?;
     let grid: Arc<dyn GridSource> = Arc::new(cache);
-    Field::from_grid(grid, Interp::Linear, GridDerivative::Interpolant)
+    Field::from_linear_grid(grid)
 }
 
 fn clamped(step: &Step, points: &[glam::DVec3]) -> Outcome<usize> {

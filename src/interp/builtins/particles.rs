@@ -15,7 +15,7 @@ use crate::particles::io::{self, FileKind};
 use crate::particles::pointfield::{Blend, PointField};
 use crate::particles::splat::{Deposit, Kernel};
 use crate::particles::{Particles, Values, chaos, flame, guide, scatter, wisp};
-use crate::sample::{FieldSampler, GridDerivative, GridSource, Interp};
+use crate::sample::{FieldSampler, GridSource};
 use glam::DVec3;
 use std::sync::Arc;
 
@@ -170,11 +170,7 @@ pub fn register(r: &mut Registry) {
             set.floats(attr)?;
             let field = PointField::new(set, attr, a.float("radius")?, blend)?;
             let grid: Arc<dyn GridSource> = Arc::new(field);
-            Ok(Value::Field(Field::from_grid(
-                grid,
-                Interp::Linear,
-                GridDerivative::Interpolant,
-            )?))
+            Ok(Value::Field(Field::from_linear_grid(grid)?))
         },
     );
     r.add(

@@ -16,7 +16,7 @@ use crate::render::settings::{Adaptive, Aovs, MultiScatter, Shadows};
 use crate::render::tonemap::ToneMap;
 use crate::render::transmittance::TransmissivityMethod;
 use crate::render::{self, Camera, Light, Phase, RenderSettings, Scene};
-use crate::sample::{GridDerivative, GridSource, Interp};
+use crate::sample::GridSource;
 use glam::DVec3;
 use std::rc::Rc;
 use std::sync::Arc;
@@ -149,7 +149,7 @@ pub fn register(r: &mut Registry) {
                 .with_label("transmissivity".to_string())
                 .with_profile("transmissivity");
             let grid: Arc<dyn GridSource> = Arc::new(cache);
-            Ok(Value::Field(Field::from_grid(grid, Interp::Linear, GridDerivative::Interpolant)?))
+            Ok(Value::Field(Field::from_linear_grid(grid)?))
         },
     );
 }

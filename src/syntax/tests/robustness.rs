@@ -5,22 +5,7 @@ use std::time::{Duration, Instant};
 use super::*;
 use crate::syntax::parse::{MAX_NESTING, is_incomplete};
 
-/// A small deterministic generator (SplitMix64), so that failures reproduce.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n as u64) as usize
-    }
-}
+use crate::test_random::SplitMix as Rng;
 
 /// Runs `f` on a thread with a deliberately small stack, so that any recursion whose depth
 /// follows the input shows up as a crash here rather than on a user's machine.
