@@ -1,0 +1,187 @@
+//! `felt merge` and `felt farm`: assembling bands into images, and writing the job files a
+//! render farm runs (Open Job Description templates, Slurm array scripts).
+
+use crate::cli::FarmEngine;
+use crate::{frame_param, report};
+use felt::session::Session;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+pub fn print_failure(failure: &felt::failure::Failure) {
+    eprintln!("felt: {}", failure.message);
+    if let Some(help) = &failure.help {
+        eprintln!("  help: {help}");
+    }
+}
+
+/// `felt merge`: every image of every frame; a failure is reported and the rest go on.
+pub fn merge(
+    images: &[String],
+    frames: Option<&felt::frames::FrameRange>,
+    tiles: Option<usize>,
+    output_dir: Option<&std::path::Path>,
+) -> ExitCode {
+    if let Some(dir) = output_dir
+        && let Err(e) = felt::output::set_directory(dir)
+    {
+        eprintln!("felt: --output-dir: {e}");
+        return ExitCode::from(2);
+    }
+    let mut paths = Vec::new();
+    for image in images {
+        match frames {
+            None => paths.push(image.clone()),
+            Some(range) => {
+                if !felt::frames::has_pattern(image) {
+                    eprintln!("felt: merge: '{image}' names no frame, but --frames was given");
+                    eprintln!("  help: write the frame as the script does: name.####.exr");
+                    return ExitCode::from(2);
+                }
+                paths.extend(
+                    range
+                        .frames
+                        .iter()
+                        .filter_map(|&f| felt::frames::fill(image, f)),
+                );
+            }
+        }
+    }
+    let mut failed = 0;
+    for path in &paths {
+        if let Err(failure) = felt::farm::merge::merge(std::path::Path::new(path), tiles) {
+            print_failure(&failure);
+            failed += 1;
+        }
+    }
+    if failed > 0 {
+        eprintln!("felt: {failed} of {} images not assembled", paths.len());
+    }
+    ExitCode::from(u8::from(failed > 0))
+}
+
+/// `felt farm openjd|slurm`: checks the script, then writes the job files.
+pub fn farm(engine: FarmEngine, color: bool) -> ExitCode {
+    let (openjd, args) = match engine {
+        FarmEngine::Openjd(args) => (true, args),
+        FarmEngine::Slurm(args) => (false, args),
+    };
+    if let Err(code) = frame_param(&args.file, &args.set) {
+        return code;
+    }
+    let mut session = match Session::new(Box::new(std::io::sink())) {
+        Ok(s) => s,
+        Err(failure) => return report(&failure.sources, &failure.diagnostics, color, 1),
+    };
+    let units = match session.load(&args.file) {
+        Ok(units) => units,
+        Err(diags) => return report(&session.sources.borrow(), &diags, color, 2),
+    };
+    let diags = session.check(&units);
+    if diags.iter().any(|d| d.is_error()) {
+        return report(&session.sources.borrow(), &diags, color, 1);
+    }
+    session.interp.overrides = args.set.iter().cloned().collect();
+    if let Err(d) = session.check_overrides(&units) {
+        return report(&session.sources.borrow(), &[d], color, 2);
+    }
+    let felt_binary = match std::env::current_exe() {
+        Ok(p) => p,
+        Err(e) => {
+            eprintln!("felt: cannot find the felt binary the tasks should run: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let programs: Vec<&felt::syntax::ast::Program> = units.iter().map(|u| &u.program).collect();
+    let job = match felt::farm::Job::new(
+        &felt_binary,
+        &args.file,
+        &programs,
+        args.frames,
+        args.tiles.map(usize::from),
+        args.set,
+        args.images,
+    ) {
+        Ok(job) => job,
+        Err(failure) => {
+            print_failure(&failure);
+            return ExitCode::from(2);
+        }
+    };
+    let stem = args
+        .file
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| String::from("felt"));
+    let written = if openjd {
+        let out = args
+            .out
+            .unwrap_or_else(|| PathBuf::from(format!("{stem}.openjd.yaml")));
+        write_job_file(&out, &felt::farm::openjd::template(&job), false).map(|()| vec![out])
+    } else {
+        let out = args
+            .out
+            .unwrap_or_else(|| PathBuf::from(format!("{stem}.slurm.sh")));
+        write_slurm(&out, &job)
+    };
+    match written {
+        Ok(files) => {
+            for file in files {
+                println!("wrote {}", file.display());
+            }
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("felt: {e}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+/// The Slurm scripts: OUT (the render array), and with bands OUT's `.merge.sh` and
+/// `.submit.sh` siblings; the submit script is written in every case.
+fn write_slurm(out: &std::path::Path, job: &felt::farm::Job) -> Result<Vec<PathBuf>, String> {
+    let scripts = felt::farm::slurm::scripts(job);
+    let name = out.to_string_lossy();
+    let stem = name.strip_suffix(".sh").unwrap_or(&name);
+    let absolute = |p: &std::path::Path| {
+        std::path::absolute(p)
+            .map(|p| p.display().to_string())
+            .map_err(|e| format!("cannot resolve '{}': {e}", p.display()))
+    };
+    let mut files = vec![out.to_path_buf()];
+    write_job_file(out, &scripts.render, true)?;
+    let merge = match &scripts.merge {
+        Some(text) => {
+            let path = PathBuf::from(format!("{stem}.merge.sh"));
+            write_job_file(&path, text, true)?;
+            files.push(path.clone());
+            Some(absolute(&path)?)
+        }
+        None => None,
+    };
+    let submit = PathBuf::from(format!("{stem}.submit.sh"));
+    let text = felt::farm::slurm::submit(&absolute(out)?, merge.as_deref());
+    write_job_file(&submit, &text, true)?;
+    files.push(submit);
+    Ok(files)
+}
+
+fn write_job_file(path: &std::path::Path, text: &str, executable: bool) -> Result<(), String> {
+    use std::io::Write;
+    felt::output::write_atomically(path, |file| {
+        file.write_all(text.as_bytes()).map_err(|e| e.to_string())?;
+        #[cfg(unix)]
+        if executable {
+            use std::os::unix::fs::PermissionsExt;
+            let mode = file
+                .metadata()
+                .map_err(|e| e.to_string())?
+                .permissions()
+                .mode();
+            file.set_permissions(std::fs::Permissions::from_mode(mode | (mode & 0o444) >> 2))
+                .map_err(|e| e.to_string())?;
+        }
+        Ok(())
+    })
+    .map_err(|e| format!("cannot write '{}': {e}", path.display()))
+}
