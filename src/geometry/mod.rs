@@ -21,6 +21,7 @@ pub mod knives;
 mod marching;
 mod obj;
 mod ply;
+mod ply_header;
 mod sphere;
 pub mod transfer;
 mod winding;
