@@ -53,23 +53,22 @@ fn constant(c: f64) -> Field {
     Field::constant_scalar(c)
 }
 
-/// The example's three probability fields of a region field `r`, compiled.
-fn probability_fields(r: &Field) -> [CompiledField; 3] {
+/// The example's three probability fields of a region field `r`, compiled together as
+/// `cloudstep` compiles them.
+fn probability_fields(r: &Field) -> CompiledField {
     let one_minus = constant(1.0).sub(r).unwrap();
-    [
-        r.mul(&constant(0.25)).unwrap(),
-        r.mul(&constant(0.004)).unwrap(),
-        constant(0.02)
-            .add(
-                &one_minus
-                    .mul(&one_minus)
-                    .unwrap()
-                    .mul(&constant(0.3))
-                    .unwrap(),
-            )
-            .unwrap(),
-    ]
-    .map(|f| CompiledField::prepared(&f).unwrap())
+    let hum = r.mul(&constant(0.25)).unwrap();
+    let act = r.mul(&constant(0.004)).unwrap();
+    let ext = constant(0.02)
+        .add(
+            &one_minus
+                .mul(&one_minus)
+                .unwrap()
+                .mul(&constant(0.3))
+                .unwrap(),
+        )
+        .unwrap();
+    CompiledField::prepared(&Field::vector_from(&hum, &act, &ext).unwrap()).unwrap()
 }
 
 /// Median seconds of `runs` calls of `f`.
@@ -86,11 +85,8 @@ fn median<T>(runs: usize, mut f: impl FnMut() -> T) -> (f64, T) {
 }
 
 /// The region-volume update: the three probability fields sampled at the cells.
-fn probabilities(fields: &[CompiledField; 3], domain: &Domain, planes: &Planes) -> Probabilities {
-    let [hum, act, ext] = fields
-        .each_ref()
-        .map(|f| Probability::sample(f, domain, planes));
-    Probabilities { hum, act, ext }
+fn probabilities(fields: &CompiledField, domain: &Domain, planes: &Planes) -> Probabilities {
+    Probabilities::sample(fields, domain, planes)
 }
 
 fn main() {
@@ -115,14 +111,15 @@ fn main() {
         CELLS[0], CELLS[1], CELLS[2]
     );
     // Grow the sky to frame 48 as the example does (regions every 8 steps).
-    let start = Probabilities {
-        hum: Probability::sample(
-            &CompiledField::prepared(&regions(0.0, cell).mul(&constant(0.5)).unwrap()).unwrap(),
-            &domain,
-            &planes,
-        ),
-        act: Probability::uniform(0.0),
-        ext: Probability::uniform(0.0),
+    let start = {
+        let hum = regions(0.0, cell).mul(&constant(0.5)).unwrap();
+        let joint = Field::vector_from(&hum, &constant(0.0), &constant(0.0)).unwrap();
+        let sampled = probabilities(&CompiledField::prepared(&joint).unwrap(), &domain, &planes);
+        Probabilities {
+            hum: sampled.hum,
+            act: Probability::uniform(0.0),
+            ext: Probability::uniform(0.0),
+        }
     };
     let mut state = CloudState::initial(domain.clone(), CELLS, 7, &start);
     let grow = Instant::now();
@@ -144,13 +141,11 @@ fn main() {
     );
 
     let fields = probability_fields(&regions(52.0, cell));
-    let (t_region, p_all) = median(5, || probabilities(&fields, &domain, &planes));
-    let (t_step, _) = median(21, || state.step(&p_all, &wind));
     let smoothing = Smoothing {
         radius: 2,
         window: 2,
     };
-    let (t_smooth, cache) = median(5, || {
+    let smooth = || {
         let sampler = SmoothedCloud::new(
             domain.clone(),
             state.planes,
@@ -168,35 +163,39 @@ fn main() {
         .unwrap();
         cache.fill_all();
         cache
-    });
+    };
+    let sun = Light::distant(DVec3::new(0.55, -0.6, -0.55), DVec3::ONE).unwrap();
+    let density_of = |cache: Cache| {
+        let grid: Arc<dyn GridSource> = Arc::new(cache);
+        CompiledField::prepared(
+            &Field::from_grid(grid, Interp::Linear, GridDerivative::Interpolant).unwrap(),
+        )
+        .unwrap()
+    };
+    let shade = |density: &CompiledField, method| {
+        light_columns(density, &sun, &domain, method, f64::INFINITY).unwrap()
+    };
+    // `FELT_CLOUD_STAGE=regions|step|smooth|shade` repeats one stage, for a profiler.
+    if let Ok(stage) = std::env::var("FELT_CLOUD_STAGE") {
+        let p_all = probabilities(&fields, &domain, &planes);
+        let density = density_of(smooth());
+        let (t, _) = median(41, || match stage.as_str() {
+            "regions" => drop(probabilities(&fields, &domain, &planes)),
+            "step" => drop(state.step(&p_all, &wind)),
+            "smooth" => drop(smooth()),
+            _ => drop(shade(&density, TransmissivityMethod::Sweep)),
+        });
+        println!("{stage}: {:.2} ms (median of 41)", t * 1e3);
+        return;
+    }
+    let (t_region, p_all) = median(5, || probabilities(&fields, &domain, &planes));
+    let (t_step, _) = median(21, || state.step(&p_all, &wind));
+    let (t_smooth, cache) = median(5, smooth);
     let filled = cache.bricks_filled();
     let total = cache.bricks_total();
-    let grid: Arc<dyn GridSource> = Arc::new(cache);
-    let density = CompiledField::prepared(
-        &Field::from_grid(grid, Interp::Linear, GridDerivative::Interpolant).unwrap(),
-    )
-    .unwrap();
-    let sun = Light::distant(DVec3::new(0.55, -0.6, -0.55), DVec3::ONE).unwrap();
-    let (t_shade, _) = median(5, || {
-        light_columns(
-            &density,
-            &sun,
-            &domain,
-            TransmissivityMethod::Sweep,
-            f64::INFINITY,
-        )
-        .unwrap()
-    });
-    let (t_march, _) = median(1, || {
-        light_columns(
-            &density,
-            &sun,
-            &domain,
-            TransmissivityMethod::March,
-            f64::INFINITY,
-        )
-        .unwrap()
-    });
+    let density = density_of(cache);
+    let (t_shade, _) = median(5, || shade(&density, TransmissivityMethod::Sweep));
+    let (t_march, _) = median(1, || shade(&density, TransmissivityMethod::March));
 
     let ms = |s: f64| s * 1e3;
     println!();
@@ -206,7 +205,7 @@ fn main() {
     println!("|---|---|---|---|");
     let rows = [
         (
-            "region-volume update (3 fields, 26 ellipsoids)",
+            "region-volume update (3 fields of 26 ellipsoids, one pass)",
             t_region,
             5.263,
         ),

@@ -147,6 +147,14 @@ pub trait BlockEval {
     fn eval_f32(&mut self, xs: &[f64], ys: &[f64], zs: &[f64], out: &mut [f32]);
     /// The same in `f64`.
     fn eval_f64(&mut self, xs: &[f64], ys: &[f64], zs: &[f64], out: &mut [f64]);
+    /// Narrows the evaluator to points inside `region` until the next call, and returns the
+    /// field's range there (as `FieldSampler::range` would), for evaluators that can shorten
+    /// their work over a region (a compiled field drops the choices the region decides). The
+    /// default does neither and returns `None`. Values at points inside the region are the
+    /// same bit for bit either way.
+    fn focus(&mut self, _region: &Aabb) -> Option<Vec<(f64, f64)>> {
+        None
+    }
 }
 
 /// A field ready to be evaluated: what cache fills, the raymarcher and mesh extraction consume.
@@ -162,6 +170,19 @@ pub trait FieldSampler: Send + Sync {
     /// The grids the field reads (for `grid::demand`); none for a closure.
     fn grids(&self) -> Vec<Arc<dyn GridSource>> {
         Vec::new()
+    }
+    /// Writes the values at the centres of `domain`'s cells `[lo, hi)` into `out` (x fastest,
+    /// components innermost) and returns true, for a field that is itself a grid on `domain`
+    /// and can give its cells without evaluating points; the default returns false. What it
+    /// writes must equal what the block evaluator gives at those centres.
+    fn fill_cells(
+        &self,
+        _domain: &crate::grid::domain::Domain,
+        _lo: [usize; 3],
+        _hi: [usize; 3],
+        _out: &mut [f32],
+    ) -> bool {
+        false
     }
 }
 

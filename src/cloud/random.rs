@@ -41,11 +41,10 @@ pub fn fires(hash: u64, channel: u32, t: u16) -> bool {
 
 /// A probability as a threshold: clamped to [0, 1]; NaN counts as 0.
 pub fn threshold(p: f64) -> u16 {
-    if p.is_nan() || p <= 0.0 {
-        0
-    } else if p >= 1.0 {
-        u16::MAX
-    } else {
-        (p * 65535.0).round() as u16
-    }
+    // Without branches, rounding half up by hand: this runs for every cell of a region update,
+    // where values below 0, inside and above 1 are mixed unpredictably, and `f64::round` is a
+    // library call on the baseline x86-64 target. `max` turns NaN into 0.
+    let x = (p * 65535.0).max(0.0).min(65535.0);
+    let t = x as i32;
+    (t + (x - t as f64 >= 0.5) as i32) as u16
 }

@@ -41,11 +41,11 @@ pub struct SmoothedCloud {
     frames: Vec<Arc<Vec<u64>>>,
     radius: usize,
     /// Weight of each frame, newest first.
-    frame_weight: Vec<f64>,
+    frame_weight: Vec<u32>,
     /// Weight of each offset along y and z, index `offset + radius`.
-    axis_weight: Vec<f64>,
+    axis_weight: Vec<u32>,
     /// Weighted count of the `2r+1` bits of a window along x, by the window's bits.
-    row_sum: Vec<f64>,
+    row_sum: Vec<u32>,
     normaliser: f64,
 }
 
@@ -58,22 +58,22 @@ impl SmoothedCloud {
     ) -> SmoothedCloud {
         let r = smoothing.radius.min(MAX_RADIUS);
         frames.truncate(smoothing.window + 1);
-        let frame_weight: Vec<f64> = (0..frames.len())
-            .map(|t| (smoothing.window + 1 - t) as f64)
+        let frame_weight: Vec<u32> = (0..frames.len())
+            .map(|t| (smoothing.window + 1 - t) as u32)
             .collect();
-        let axis_weight: Vec<f64> = (0..=2 * r)
-            .map(|o| (r + 1 - o.abs_diff(r)) as f64)
+        let axis_weight: Vec<u32> = (0..=2 * r)
+            .map(|o| (r + 1 - o.abs_diff(r)) as u32)
             .collect();
-        let row_sum: Vec<f64> = (0..1usize << (2 * r + 1))
+        let row_sum: Vec<u32> = (0..1usize << (2 * r + 1))
             .map(|bits: usize| {
                 (0..=2 * r)
                     .filter(|&b| bits >> b & 1 == 1)
                     .map(|b| axis_weight[b])
-                    .sum::<f64>()
+                    .sum::<u32>()
             })
             .collect();
-        let axis: f64 = axis_weight.iter().sum();
-        let normaliser = axis * axis * axis * frame_weight.iter().sum::<f64>();
+        let axis: u32 = axis_weight.iter().sum();
+        let normaliser = (axis * axis * axis * frame_weight.iter().sum::<u32>()) as f64;
         SmoothedCloud {
             domain,
             planes,
@@ -89,31 +89,20 @@ impl SmoothedCloud {
     /// The `2r+1` bits of row `row` centred on cell `i` (bit `b` is cell `i − r + b`), zeros
     /// outside the row.
     fn window(&self, plane: &[u64], row: usize, i: usize) -> usize {
-        let r = self.radius as i64;
         let words = self.planes.words;
         let base = &plane[row * words..(row + 1) * words];
-        let lo = i as i64 - r;
-        let bits = 2 * r + 1;
-        let read = |w: i64| {
-            if (0..words as i64).contains(&w) {
-                base[w as usize]
-            } else {
-                0
-            }
-        };
-        let (w, b) = (lo.div_euclid(64), lo.rem_euclid(64) as u32);
-        let mut v = read(w) >> b;
-        if b != 0 {
-            v |= read(w + 1) << (64 - b);
-        }
-        (v & ((1u64 << bits) - 1)) as usize
+        segment(
+            base,
+            i as i64 - self.radius as i64,
+            2 * self.radius as u32 + 1,
+        ) as usize
     }
 
     /// The smoothed density at cell `(i, j, k)`.
     pub fn at_cell(&self, i: usize, j: usize, k: usize) -> f64 {
         let r = self.radius as i64;
         let p = &self.planes;
-        let mut sum = 0.0;
+        let mut sum = 0u32;
         for (frame, tw) in self.frames.iter().zip(&self.frame_weight) {
             for dk in -r..=r {
                 let kk = k as i64 + dk;
@@ -133,7 +122,7 @@ impl SmoothedCloud {
                 }
             }
         }
-        sum / self.normaliser
+        sum as f64 / self.normaliser
     }
 
     /// Whether any cloud bit of any frame lies in cells `[lo, hi]` (inclusive, clamped).
@@ -182,16 +171,18 @@ impl SmoothedCloud {
     }
 
     /// The smoothed density of every cell in `[lo, hi)` into `out` (index
-    /// `i + nx·(j + ny·k)` within the box), separably: the windows along x per frame, then
-    /// the weights along y, then along z. Every partial sum is a whole number, so the result
-    /// equals `at_cell`'s bit for bit.
-    pub fn fill_box(
-        &self,
-        lo: [usize; 3],
-        hi: [usize; 3],
-        out: &mut Vec<f64>,
-        scratch: &mut Vec<f64>,
-    ) {
+    /// `i + nx·(j + ny·k)` within the box). Equals `at_cell`'s bit for bit (see `sums`).
+    pub fn fill_box(&self, lo: [usize; 3], hi: [usize; 3], out: &mut Vec<f64>, sums: &mut Sums) {
+        self.sums(lo, hi, sums);
+        out.clear();
+        out.extend(sums.out.iter().map(|&s| s as f64 / self.normaliser));
+    }
+
+    /// The weighted sums of every cell in `[lo, hi)` into `sums.out` (the density times the
+    /// normaliser), separably: the windows along x per frame, then the weights along y, then
+    /// along z. Every weight is a whole number, so the sums are exact integers and the same
+    /// whatever order they are formed in: dividing them gives `at_cell`'s values bit for bit.
+    fn sums(&self, lo: [usize; 3], hi: [usize; 3], sums: &mut Sums) {
         let p = &self.planes;
         let r = self.radius;
         let n = [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]];
@@ -199,40 +190,54 @@ impl SmoothedCloud {
         let (j0, j1) = (lo[1].saturating_sub(r), (hi[1] + r).min(p.ny));
         let (k0, k1) = (lo[2].saturating_sub(r), (hi[2] + r).min(p.nz));
         let (hj, hk) = (j1 - j0, k1 - k0);
-        // Along x, frames summed: x[i + n0·(j − j0 + hj·(k − k0))].
-        scratch.clear();
-        scratch.resize(n[0] * hj * hk, 0.0);
+        let mask = (1u64 << (2 * r + 1)) - 1;
+        // Cells along x read at once: a chunk plus its window's reach fits in one word.
+        let chunk = 64 - 2 * r;
+        // Along x, frames summed: along_x[i + n0·(j − j0 + hj·(k − k0))].
+        let along_x = &mut sums.along_x;
+        along_x.clear();
+        along_x.resize(n[0] * hj * hk, 0);
         for k in k0..k1 {
             for j in j0..j1 {
                 let at = n[0] * ((j - j0) + hj * (k - k0));
                 let row = p.row(j, k);
-                for (frame, tw) in self.frames.iter().zip(&self.frame_weight) {
-                    for (x, value) in scratch[at..at + n[0]].iter_mut().enumerate() {
-                        let bits = self.window(frame, row, lo[0] + x);
-                        if bits != 0 {
-                            *value += tw * self.row_sum[bits];
+                for (frame, &tw) in self.frames.iter().zip(&self.frame_weight) {
+                    let base = &frame[row * p.words..(row + 1) * p.words];
+                    for x0 in (0..n[0]).step_by(chunk) {
+                        let count = chunk.min(n[0] - x0);
+                        let start = (lo[0] + x0) as i64 - r as i64;
+                        let bits = segment(base, start, (count + 2 * r) as u32);
+                        if bits == 0 {
+                            continue;
+                        }
+                        for (x, value) in along_x[at + x0..at + x0 + count].iter_mut().enumerate() {
+                            let window = (bits >> x & mask) as usize;
+                            *value += tw * self.row_sum[window];
                         }
                     }
                 }
             }
         }
         // Along y then z, into the box.
-        let mut along_y = vec![0.0; n[0] * n[1] * hk];
+        let along_y = &mut sums.along_y;
+        along_y.clear();
+        along_y.resize(n[0] * n[1] * hk, 0);
         for k in 0..hk {
             for j in 0..n[1] {
                 let target = &mut along_y[n[0] * (j + n[1] * k)..][..n[0]];
                 let centre = lo[1] + j;
                 for jj in centre.saturating_sub(r)..(centre + r + 1).min(p.ny) {
                     let w = self.axis_weight[jj + r - centre];
-                    let from = &scratch[n[0] * ((jj - j0) + hj * k)..][..n[0]];
+                    let from = &along_x[n[0] * ((jj - j0) + hj * k)..][..n[0]];
                     for (t, f) in target.iter_mut().zip(from) {
                         *t += w * f;
                     }
                 }
             }
         }
+        let out = &mut sums.out;
         out.clear();
-        out.resize(n[0] * n[1] * n[2], 0.0);
+        out.resize(n[0] * n[1] * n[2], 0);
         for k in 0..n[2] {
             let centre = lo[2] + k;
             for kk in centre.saturating_sub(r)..(centre + r + 1).min(p.nz) {
@@ -243,9 +248,37 @@ impl SmoothedCloud {
                 }
             }
         }
-        for v in out.iter_mut() {
-            *v /= self.normaliser;
+    }
+}
+
+/// Scratch space for the separable sums of one box.
+#[derive(Default)]
+pub struct Sums {
+    along_x: Vec<u32>,
+    along_y: Vec<u32>,
+    out: Vec<u32>,
+}
+
+/// The `count <= 64` bits of a row's cells `start .. start + count` (bit `b` is cell
+/// `start + b`), zeros outside the row.
+#[inline]
+fn segment(row: &[u64], start: i64, count: u32) -> u64 {
+    let read = |w: i64| {
+        if (0..row.len() as i64).contains(&w) {
+            row[w as usize]
+        } else {
+            0
         }
+    };
+    let (w, b) = (start.div_euclid(64), start.rem_euclid(64) as u32);
+    let mut v = read(w) >> b;
+    if b != 0 {
+        v |= read(w + 1) << (64 - b);
+    }
+    if count >= 64 {
+        v
+    } else {
+        v & ((1u64 << count) - 1)
     }
 }
 
@@ -255,7 +288,7 @@ struct Evaluator<'a> {
     cloud: &'a SmoothedCloud,
     cells: Vec<Option<[usize; 3]>>,
     values: Vec<f64>,
-    scratch: Vec<f64>,
+    scratch: Sums,
 }
 
 impl Evaluator<'_> {
@@ -312,8 +345,21 @@ impl FieldSampler for SmoothedCloud {
             cloud: self,
             cells: Vec::new(),
             values: Vec::new(),
-            scratch: Vec::new(),
+            scratch: Sums::default(),
         })
+    }
+
+    /// A brick of the cloud's own domain is its cells' sums, without locating points.
+    fn fill_cells(&self, domain: &Domain, lo: [usize; 3], hi: [usize; 3], out: &mut [f32]) -> bool {
+        if *domain != self.domain {
+            return false;
+        }
+        let mut sums = Sums::default();
+        self.sums(lo, hi, &mut sums);
+        for (o, &s) in out.iter_mut().zip(&sums.out) {
+            *o = (s as f64 / self.normaliser) as f32;
+        }
+        true
     }
 
     fn bounds(&self) -> Option<Aabb> {

@@ -2,9 +2,11 @@ use super::automaton::{CloudState, Wind};
 use super::bits::Planes;
 use super::region::{Probabilities, Probability, ellipsoid_profile};
 use super::smooth::{SmoothedCloud, Smoothing};
+use crate::grid::cache::Cache;
 use crate::grid::domain::Domain;
 use crate::sample::FieldSampler;
 use glam::DVec3;
+use std::sync::Arc;
 
 fn domain(n: [usize; 3]) -> Domain {
     let lengths = DVec3::new(n[0] as f64, n[1] as f64, n[2] as f64);
@@ -444,21 +446,84 @@ fn smoothing_a_box_equals_smoothing_cell_by_cell() {
             s.cloud_frames(window + 1),
             Smoothing { radius, window },
         );
-        let (lo, hi) = ([60, 2, 0], [70, 9, 6]);
-        let (mut out, mut scratch) = (Vec::new(), Vec::new());
-        d.fill_box(lo, hi, &mut out, &mut scratch);
-        let mut at = 0;
-        for k in lo[2]..hi[2] {
-            for j in lo[1]..hi[1] {
-                for i in lo[0]..hi[0] {
-                    assert_eq!(
-                        out[at].to_bits(),
-                        d.at_cell(i, j, k).to_bits(),
-                        "r {radius} cell {i} {j} {k}"
-                    );
-                    at += 1;
+        // A box at the far edge, and the whole domain (rows longer than one word's chunk).
+        for (lo, hi) in [([60, 2, 0], [70, 9, 6]), ([0, 0, 0], n)] {
+            let (mut out, mut sums) = (Vec::new(), super::smooth::Sums::default());
+            d.fill_box(lo, hi, &mut out, &mut sums);
+            let mut at = 0;
+            for k in lo[2]..hi[2] {
+                for j in lo[1]..hi[1] {
+                    for i in lo[0]..hi[0] {
+                        assert_eq!(
+                            out[at].to_bits(),
+                            d.at_cell(i, j, k).to_bits(),
+                            "r {radius} cell {i} {j} {k}"
+                        );
+                        at += 1;
+                    }
                 }
             }
         }
+    }
+}
+
+#[test]
+fn a_cache_of_the_smoothed_cloud_holds_its_cells_values() {
+    let n = [70, 9, 11];
+    let s = random_state(n, 5, 0.0, 0.0, 0.2);
+    let d = Arc::new(SmoothedCloud::new(
+        s.domain.clone(),
+        s.planes,
+        s.cloud_frames(2),
+        Smoothing {
+            radius: 2,
+            window: 1,
+        },
+    ));
+    let cache = Cache::from_source(
+        s.domain.clone(),
+        1,
+        d.clone(),
+        vec![0.0],
+        "clouddensity",
+        "test".into(),
+    )
+    .unwrap();
+    cache.fill_all();
+    let mut filled = 0;
+    for k in 0..n[2] {
+        for j in 0..n[1] {
+            for i in 0..n[0] {
+                let stored = cache.value_at_cell(i, j, k).expect("inside")[0];
+                let expected = d.at_cell(i, j, k) as f32;
+                assert_eq!(stored.to_bits(), expected.to_bits(), "cell {i} {j} {k}");
+                filled += (stored > 0.0) as usize;
+            }
+        }
+    }
+    assert!(filled > 100, "the test cloud has density ({filled} cells)");
+}
+
+#[test]
+fn a_probability_becomes_the_nearest_sixteen_bit_threshold() {
+    use super::random::threshold;
+    for (p, t) in [
+        (f64::NAN, 0),
+        (-1.0, 0),
+        (0.0, 0),
+        (0.49 / 65535.0, 0),
+        (0.5 / 65535.0, 1),
+        (1.0, 65535),
+        (7.0, 65535),
+        (f64::INFINITY, 65535),
+        (f64::NEG_INFINITY, 0),
+    ] {
+        assert_eq!(threshold(p), t, "p = {p}");
+    }
+    // Elsewhere in (0, 1) it is `p · 65535` rounded to the nearest whole number.
+    let mut random = crate::test_random::SplitMix(11);
+    for _ in 0..100_000 {
+        let p = random.unit();
+        assert_eq!(threshold(p), (p * 65535.0).round() as u16, "p = {p}");
     }
 }

@@ -18,6 +18,7 @@ use crate::field::node::{BinOp, MathFn};
 use crate::field::noise::{self, NoiseOutput};
 use crate::field::program::{Instr, Program, Reg, UNUSED};
 use crate::sample::BLOCK;
+use std::sync::Arc;
 
 /// Which noise kernels a run uses (registers are always `f64`).
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -28,8 +29,25 @@ pub enum Precision {
     Double,
 }
 
+/// The program an evaluator runs: borrowed from its compiled field, or a pruned one it holds.
+#[derive(Clone)]
+pub enum ProgramRef<'p> {
+    Borrowed(&'p Program),
+    Shared(Arc<Program>),
+}
+
+impl ProgramRef<'_> {
+    pub fn get(&self) -> &Program {
+        match self {
+            ProgramRef::Borrowed(p) => p,
+            ProgramRef::Shared(p) => p,
+        }
+    }
+}
+
 pub struct Evaluator<'p> {
-    program: &'p Program,
+    /// The compiled field's own program, or one specialised to a region (`field::prune`).
+    program: ProgramRef<'p>,
     regs: Vec<f64>,
     /// Grid kernels write all components here first, component-major.
     grid_out: Vec<f64>,
@@ -46,13 +64,33 @@ impl<'p> Evaluator<'p> {
             regs[r as usize * BLOCK..(r as usize + 1) * BLOCK].fill(c);
         }
         Evaluator {
-            program,
+            program: ProgramRef::Borrowed(program),
             regs,
             grid_out: vec![0.0; program.grid_scratch.max(1) * BLOCK],
             noise_in: [vec![0.0; BLOCK], vec![0.0; BLOCK], vec![0.0; BLOCK]],
             noise_out: vec![0.0; 10 * BLOCK],
             noise_out64: vec![0.0; 10 * BLOCK],
         }
+    }
+
+    /// Runs `program` from now on, keeping the scratch space: a program specialised to a region
+    /// replaces the field's own for the points of that region.
+    pub fn set_program(&mut self, handle: ProgramRef<'p>) {
+        let program = handle.get();
+        self.regs.resize(program.registers * BLOCK, 0.0);
+        for &(r, c) in &program.constants {
+            self.regs[r as usize * BLOCK..(r as usize + 1) * BLOCK].fill(c);
+        }
+        let grid = program.grid_scratch.max(1) * BLOCK;
+        if self.grid_out.len() < grid {
+            self.grid_out.resize(grid, 0.0);
+        }
+        self.program = handle;
+    }
+
+    /// The program being run.
+    pub fn program(&self) -> &Program {
+        self.program.get()
     }
 
     /// Runs the program on `xs.len() <= BLOCK` points; results stay in the output registers.
@@ -89,7 +127,7 @@ impl<'p> Evaluator<'p> {
 
     /// Component `c` of the result for the last run, `n` lanes.
     pub fn output(&self, c: usize, n: usize) -> &[f64] {
-        let r = self.program.outputs[c] as usize;
+        let r = self.program.get().outputs[c] as usize;
         &self.regs[r * BLOCK..r * BLOCK + n]
     }
 
@@ -113,7 +151,7 @@ impl<'p> Evaluator<'p> {
         n: usize,
         emit: &mut impl FnMut(usize, &[f64]),
     ) {
-        let emits = &self.program.emits;
+        let emits = &self.program.get().emits;
         while let Some(&(at, c)) = emits.get(*next) {
             if at != k {
                 break;
@@ -125,7 +163,9 @@ impl<'p> Evaluator<'p> {
 
     #[inline(always)]
     fn run_tape(&mut self, n: usize, precision: Precision, emit: &mut impl FnMut(usize, &[f64])) {
-        let program = self.program;
+        // A cheap handle, so the tape can be read while the evaluator's scratch is written.
+        let handle = self.program.clone();
+        let program = handle.get();
         let mut next = 0;
         for (step, instr) in program.instrs.iter().enumerate() {
             match instr {

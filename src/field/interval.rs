@@ -277,6 +277,13 @@ impl IntervalTape {
 
     /// Intervals of the roots over positions in `region`.
     pub fn ranges(&self, region: &Aabb) -> Vec<Interval> {
+        let iv = self.intervals(region);
+        self.ssa.roots.iter().map(|&r| iv[r as usize]).collect()
+    }
+
+    /// The interval of every instruction over positions in `region`, by instruction index
+    /// (what `prune` decides choices by).
+    pub fn intervals(&self, region: &Aabb) -> Vec<Interval> {
         let insts = &self.ssa.insts;
         let mut iv: Vec<Interval> = Vec::with_capacity(insts.len());
         let mut kernel_iv: Vec<Vec<Interval>> = vec![Vec::new(); self.kernels];
@@ -311,7 +318,7 @@ impl IntervalTape {
             };
             iv.push(r);
         }
-        self.ssa.roots.iter().map(|&r| iv[r as usize]).collect()
+        iv
     }
 }
 

@@ -27,6 +27,7 @@ pub mod noise;
 #[cfg(test)]
 mod op_tests;
 pub mod program;
+pub mod prune;
 mod sampler;
 pub mod ssa;
 mod substitution;

@@ -7,11 +7,12 @@
 //! included), because it is how scripts and tests check values against closed forms.
 
 use crate::failure::{Failure, Outcome};
-use crate::field::eval::{Evaluator, Precision};
+use crate::field::eval::{Evaluator, Precision, ProgramRef};
 use crate::field::interval;
 use crate::field::node::{Kernel, NodeRef};
 use crate::field::program::Program;
-use crate::field::ssa::{Inst, Ssa};
+use crate::field::prune;
+use crate::field::ssa::{Index, Inst, Ssa};
 use crate::field::{Field, FieldKind, FieldValue};
 use crate::grid::domain::Domain;
 use crate::sample::{Aabb, BLOCK, BlockEval, FieldSampler, GridSource};
@@ -28,17 +29,47 @@ pub struct CompiledField {
     support: OnceLock<Option<Aabb>>,
     /// Every grid the roots read, for solving them ahead of an output.
     grids: Vec<Arc<dyn GridSource>>,
+    /// The max, min and select instructions, which a region may decide (`prune`).
+    choices: Vec<Index>,
 }
 
 impl CompiledField {
     pub fn new(field: &Field) -> CompiledField {
-        let ssa = Arc::new(Ssa::new(field.components()));
+        CompiledField::from_ssa(Arc::new(Ssa::new(field.components())))
+    }
+
+    fn from_ssa(ssa: Arc<Ssa>) -> CompiledField {
         CompiledField {
             program: Program::from_ssa(&ssa),
             grids: grids_of(&ssa),
+            choices: prune::choices(&ssa),
             intervals: interval::IntervalTape::from_ssa(ssa),
             support: OnceLock::new(),
         }
+    }
+
+    /// The field with the choices that `region` decides dropped (`field::prune`), for
+    /// evaluating many points inside it; `None` when the region decides none. Its values at
+    /// points inside the region are this field's, bit for bit. A region split into bricks is
+    /// pruned once for the whole and then per brick from the shorter tape, which is what makes
+    /// pruning cheap on a long tape.
+    pub fn pruned(&self, region: &Aabb) -> Option<CompiledField> {
+        if self.choices.is_empty() {
+            return None;
+        }
+        let ssa = self.intervals.ssa();
+        let iv = self.intervals.intervals(region);
+        let decisions = prune::decisions(ssa, &self.choices, &iv);
+        prune::pruned(ssa, &self.choices, &decisions).map(|p| CompiledField::from_ssa(Arc::new(p)))
+    }
+
+    /// Instructions in the linear form.
+    pub fn len(&self) -> usize {
+        self.intervals.ssa().len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.intervals.ssa().is_empty()
     }
 
     /// Compiled and with its whole-grid solves run: what outputs evaluate.
@@ -65,7 +96,10 @@ impl CompiledField {
 }
 
 struct CompiledEval<'a> {
+    field: &'a CompiledField,
     evaluator: Evaluator<'a>,
+    /// The decisions of the pruned program being run; empty while the field's own runs.
+    decided: Vec<Index>,
 }
 
 impl CompiledEval<'_> {
@@ -110,6 +144,39 @@ impl BlockEval for CompiledEval<'_> {
             out[c * n + start..c * n + start + values.len()].copy_from_slice(values);
         });
     }
+
+    /// Runs the program pruned to `region` (or the field's own where the region decides no
+    /// choice). Neighbouring regions usually decide alike, so the program is rebuilt only when
+    /// the decisions change.
+    fn focus(&mut self, region: &Aabb) -> Option<Vec<(f64, f64)>> {
+        let field = self.field;
+        let iv = field.intervals.intervals(region);
+        let ssa = field.intervals.ssa();
+        let range = ssa
+            .roots
+            .iter()
+            .map(|&r| (iv[r as usize].lo, iv[r as usize].hi))
+            .collect();
+        if field.choices.is_empty() {
+            return Some(range);
+        }
+        let decisions = prune::decisions(ssa, &field.choices, &iv);
+        let undecided = decisions.iter().all(|&d| d == Index::MAX);
+        if undecided {
+            if !self.decided.is_empty() {
+                self.evaluator
+                    .set_program(ProgramRef::Borrowed(&field.program));
+                self.decided.clear();
+            }
+        } else if decisions != self.decided {
+            if let Some(pruned) = prune::pruned(ssa, &field.choices, &decisions) {
+                self.evaluator
+                    .set_program(ProgramRef::Shared(Arc::new(Program::from_ssa(&pruned))));
+            }
+            self.decided = decisions;
+        }
+        Some(range)
+    }
 }
 
 impl FieldSampler for CompiledField {
@@ -119,7 +186,9 @@ impl FieldSampler for CompiledField {
 
     fn evaluator(&self) -> Box<dyn BlockEval + '_> {
         Box::new(CompiledEval {
+            field: self,
             evaluator: Evaluator::new(&self.program),
+            decided: Vec::new(),
         })
     }
 

@@ -4,8 +4,9 @@
 //! source's block evaluator in blocks of `sample::BLOCK` — and it is computed exactly once,
 //! inside its `OnceLock`, whether an eager `fill_all` or a lazy query got there first. So the
 //! stored values depend only on the brick, never on the order or the thread that filled it.
-//! Before evaluating, the source's interval form is asked for the range over the brick's
-//! cell centres; a range of exactly the background skips the evaluation.
+//! Before evaluating, the evaluator is focused on the box of the brick's cell centres, which
+//! gives the source's range there and lets a compiled field drop the choices the box decides
+//! (`field::prune`); a range of exactly the background skips the evaluation.
 
 use super::{BRICK, BRICK_CELLS, Brick, Cache, MAX_WIDTH, local_index, lock};
 use crate::sample::{Aabb, BLOCK, BlockEval, FieldSampler};
@@ -101,7 +102,10 @@ impl Cache {
     ) -> Brick {
         let started = Instant::now();
         let (lo, hi) = self.shape.brick_cells(index);
-        let range = source.range(&self.centre_box(lo, hi));
+        let centres = self.centre_box(lo, hi);
+        let range = evaluator
+            .focus(&centres)
+            .unwrap_or_else(|| source.range(&centres));
         let background_only = range.len() == self.width
             && range
                 .iter()
@@ -120,6 +124,20 @@ impl Cache {
         }
 
         let FillScratch { xs, ys, zs, out } = scratch;
+        let row_cells = hi[0] - lo[0];
+        let width = self.width;
+        let cells = row_cells * (hi[1] - lo[1]) * (hi[2] - lo[2]);
+        if source.fill_cells(&self.domain, lo, hi, &mut out[..cells * width]) {
+            // Cell-major already: copy row by row into the brick's 8×8×8 order.
+            let mut values = self.background_brick.clone();
+            let row = row_cells * width;
+            for (n, from) in out[..cells * width].chunks_exact(row).enumerate() {
+                let (y, z) = (n % (hi[1] - lo[1]), n / (hi[1] - lo[1]));
+                let at = local_index(0, y, z) * width;
+                values[at..at + row].copy_from_slice(from);
+            }
+            return self.finish_computed(index, values, started);
+        }
         // `Domain::cell_center` computes origin + ((X lx + Y ly) + Z lz) with the rotation's
         // columns X, Y, Z; each product depends on one index, so taking them once per index
         // and adding them in the same order gives the same positions bit for bit, cheaper.
@@ -127,7 +145,6 @@ impl Cache {
         let origin = self.domain.origin;
         let cell = self.domain.cell;
         let along = |axis: usize, column: DVec3, i: usize| column * ((i as f64 + 0.5) * cell[axis]);
-        let row_cells = hi[0] - lo[0];
         let mut row = [DVec3::ZERO; BRICK];
         for (x, product) in (lo[0]..hi[0]).zip(&mut row) {
             *product = along(0, rotation.x_axis, x);
@@ -149,7 +166,6 @@ impl Cache {
                 count = end;
             }
         }
-        let width = self.width;
         for block_start in (0..count).step_by(BLOCK) {
             let n = BLOCK.min(count - block_start);
             let block = block_start..block_start + n;
@@ -178,6 +194,11 @@ impl Cache {
                 }
             }
         }
+        self.finish_computed(index, values, started)
+    }
+
+    /// Stores a computed brick and counts its time.
+    fn finish_computed(&self, index: usize, values: Box<[f32]>, started: Instant) -> Brick {
         let brick = self.store_computed(index, values);
         let nanos = started.elapsed().as_nanos() as u64;
         self.fill_nanos.fetch_add(nanos, Ordering::Relaxed);

@@ -231,56 +231,54 @@ fn sample_regions(
     }
     let started = Instant::now();
     let planes = Planes::new(resolution);
-    let mut channels = Vec::with_capacity(3);
-    let mut sampled = 0u64;
-    for (field, name) in fields.iter().zip(names) {
-        channels.push(probability(
-            field.as_ref(),
-            name,
-            domain,
-            &planes,
-            &mut sampled,
-        )?);
+    // Constant probabilities are uniform; the rest are sampled together in one pass, so what
+    // the three share (a region field) is evaluated once per cell.
+    let mut uniform: [Option<Probability>; 3] = [None, None, None];
+    let mut components = Vec::with_capacity(3);
+    for ((field, name), slot) in fields.iter().zip(names).zip(&mut uniform) {
+        match field {
+            None => *slot = Some(Probability::Uniform(0)),
+            Some(field) => {
+                if let Some(crate::field::FieldValue::Scalar(p)) = field.as_constant() {
+                    if !p.is_finite() {
+                        return Err(Failure::new(format!(
+                            "probability {name} must be finite, found {p}"
+                        )));
+                    }
+                    *slot = Some(Probability::uniform(p));
+                }
+            }
+        }
+        components.push(match (field, &slot) {
+            (Some(field), None) => field.clone(),
+            _ => Field::constant_scalar(0.0),
+        });
     }
-    let [hum, act, ext]: [Probability; 3] = channels
-        .try_into()
-        .map_err(|_| Failure::new("three probabilities expected"))?;
-    if sampled > 0 {
+    let probabilities = if uniform.iter().all(Option::is_some) {
+        let [hum, act, ext] = uniform.map(|p| p.expect("all uniform"));
+        Probabilities { hum, act, ext }
+    } else {
+        // Three 16-bit thresholds and three bits a cell: within two f32 grids' budget.
+        domain.check_grid_memory(2)?;
+        let joint = Field::vector_from(&components[0], &components[1], &components[2])?;
+        let compiled = CompiledField::prepared(&joint)?;
+        let sampled = Probabilities::sample(&compiled, domain, &planes);
+        let [hum, act, ext] = [
+            (uniform[0].take(), sampled.hum),
+            (uniform[1].take(), sampled.act),
+            (uniform[2].take(), sampled.ext),
+        ]
+        .map(|(uniform, sampled)| uniform.unwrap_or(sampled));
+        let bytes = (hum.bytes() + act.bytes() + ext.bytes()) as u64;
         let stats = profile::register("cloudregion", label);
         stats.add_instance(0);
-        stats.add_work(started.elapsed().as_nanos() as u64, sampled);
-    }
+        stats.add_work(started.elapsed().as_nanos() as u64, bytes);
+        Probabilities { hum, act, ext }
+    };
     Ok(Regions {
         fields,
-        probabilities: Arc::new(Probabilities { hum, act, ext }),
+        probabilities: Arc::new(probabilities),
     })
-}
-
-/// One probability: uniform for a constant field, else sampled at the cell centres (bricks
-/// where the field is certainly zero are not evaluated). Adds the bytes kept to `sampled`.
-fn probability(
-    field: Option<&Field>,
-    name: &str,
-    domain: &Domain,
-    planes: &Planes,
-    sampled: &mut u64,
-) -> Outcome<Probability> {
-    let Some(field) = field else {
-        return Ok(Probability::Uniform(0));
-    };
-    if let Some(crate::field::FieldValue::Scalar(p)) = field.as_constant() {
-        if !p.is_finite() {
-            return Err(Failure::new(format!(
-                "probability {name} must be finite, found {p}"
-            )));
-        }
-        return Ok(Probability::uniform(p));
-    }
-    domain.check_grid_memory(1)?;
-    let compiled = CompiledField::prepared(field)?;
-    let p = Probability::sample(&compiled, domain, planes);
-    *sampled += p.bytes() as u64;
-    Ok(p)
 }
 
 fn cloud(a: &Args) -> Outcome<&Rc<CloudVar>> {
