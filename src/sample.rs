@@ -11,6 +11,7 @@
 //! component `c` of point `i` is `out[c * n + i]`.
 
 use crate::failure::Outcome;
+use crate::grid::domain::Domain;
 use glam::{DMat3, DVec3};
 use std::fmt::Debug;
 use std::sync::Arc;
@@ -131,6 +132,13 @@ pub trait GridSource: Send + Sync + Debug {
     fn pending_inputs(&self) -> Vec<Arc<dyn GridSource>> {
         Vec::new()
     }
+    /// Writes the stored values of `domain`'s cells `[lo, hi)` into `out` (x fastest,
+    /// components innermost) and returns true, when this grid's samples are exactly those
+    /// cells; the default returns false. Those are the values any interpolation reads at the
+    /// cells' centres, so a grid sampled on its own cells is copied, not interpolated.
+    fn cells(&self, _domain: &Domain, _lo: [usize; 3], _hi: [usize; 3], _out: &mut [f32]) -> bool {
+        false
+    }
     /// Computes the grid now if it is a whole-grid solve that has not run (an FFT projection);
     /// brick-lazy grids do nothing here. Called by `grid::demand` before an output runs, in
     /// dependency order, so that solves run on all threads and never inside another
@@ -177,7 +185,7 @@ pub trait FieldSampler: Send + Sync {
     /// writes must equal what the block evaluator gives at those centres.
     fn fill_cells(
         &self,
-        _domain: &crate::grid::domain::Domain,
+        _domain: &Domain,
         _lo: [usize; 3],
         _hi: [usize; 3],
         _out: &mut [f32],

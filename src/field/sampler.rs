@@ -202,6 +202,27 @@ impl FieldSampler for CompiledField {
         self.grids.clone()
     }
 
+    /// A field that is nothing but a read of one grid gives that grid's own cells.
+    fn fill_cells(&self, domain: &Domain, lo: [usize; 3], hi: [usize; 3], out: &mut [f32]) -> bool {
+        let ssa = self.intervals.ssa();
+        let [
+            Inst::X,
+            Inst::Y,
+            Inst::Z,
+            Inst::Kernel(Kernel::GridValue { grid, .. }, args),
+            ..,
+        ] = ssa.insts.as_slice()
+        else {
+            return false;
+        };
+        let plain_read = args.as_slice() == [0, 1, 2]
+            && ssa.insts.len() == 4 + ssa.roots.len()
+            && ssa.roots.iter().enumerate().all(
+                |(c, &r)| matches!(ssa.insts[r as usize], Inst::Output([3], i) if i as usize == c),
+            );
+        plain_read && grid.cells(domain, lo, hi, out)
+    }
+
     fn range(&self, region: &Aabb) -> Vec<(f64, f64)> {
         self.intervals
             .ranges(region)

@@ -20,7 +20,7 @@
 //! interpolation slice after slice softens. Density outside the domain is zero.
 
 use super::light::Light;
-use super::sweep::sweep;
+use super::sweep::{WORKING, sweep};
 use crate::failure::{Failure, Outcome};
 use crate::grid::domain::Domain;
 use crate::sample::{Aabb, BLOCK, BlockEval, FieldSampler};
@@ -197,8 +197,11 @@ pub fn light_columns(
     };
     let column = match (use_sweep, sweep_axis) {
         (true, Some(axis)) => {
-            let rho = sample_centres(density, domain, resolution);
-            sweep(&rho, light, domain, resolution, axis)
+            let cells = resolution.iter().product();
+            let rho = sample_centres_into(density, domain, resolution, WORKING.take(cells));
+            let column = sweep(&rho, light, domain, resolution, axis);
+            WORKING.give(rho);
+            column
         }
         _ => march_cells(density, light, domain, resolution, limit),
     };
@@ -247,73 +250,66 @@ pub fn sweeps(light: &Light, domain: &Domain) -> Option<(usize, bool)> {
     }
 }
 
-/// Density at every cell centre (negative values as zero). Bricks whose range is certainly
-/// zero are not evaluated.
+/// Density at every cell centre (negative and non-finite values as zero). Bricks whose range
+/// is certainly zero are not evaluated, and a density that is itself a grid on these cells
+/// gives its stored values without evaluating points. Slabs of bricks along z are filled in
+/// parallel, each writing only its own cells.
 pub fn sample_centres(
     density: &dyn FieldSampler,
     domain: &Domain,
     resolution: [usize; 3],
 ) -> Vec<f32> {
     let [nx, ny, nz] = resolution;
-    let bricks = [nx.div_ceil(BRICK), ny.div_ceil(BRICK), nz.div_ceil(BRICK)];
-    let count = bricks[0] * bricks[1] * bricks[2];
-    let per_brick: Vec<Option<Vec<f32>>> = (0..count)
-        .into_par_iter()
-        .map_init(
-            || (density.evaluator(), Scratch::default()),
-            |(eval, scratch), b| {
-                let bi = [
-                    b % bricks[0],
-                    (b / bricks[0]) % bricks[1],
-                    b / (bricks[0] * bricks[1]),
-                ];
-                let lo = [bi[0] * BRICK, bi[1] * BRICK, bi[2] * BRICK];
-                let hi = [
-                    (lo[0] + BRICK).min(nx),
-                    (lo[1] + BRICK).min(ny),
-                    (lo[2] + BRICK).min(nz),
-                ];
-                let region = local_box_bounds(domain, lo, hi);
-                if density.range(&region)[0].1 <= 0.0 {
-                    return None;
-                }
-                scratch.clear();
-                for k in lo[2]..hi[2] {
-                    for j in lo[1]..hi[1] {
-                        for i in lo[0]..hi[0] {
-                            scratch.push(domain.cell_center(i, j, k));
+    sample_centres_into(density, domain, resolution, vec![0f32; nx * ny * nz])
+}
+
+/// `sample_centres` into `out` (of the grid's size, any contents: every cell is written).
+fn sample_centres_into(
+    density: &dyn FieldSampler,
+    domain: &Domain,
+    resolution: [usize; 3],
+    mut out: Vec<f32>,
+) -> Vec<f32> {
+    let [nx, ny, nz] = resolution;
+    out.par_chunks_mut(nx * ny * BRICK)
+        .enumerate()
+        .for_each_init(
+            || (density.evaluator(), Scratch::default(), Vec::new()),
+            |(eval, scratch, values), (slab, cells)| {
+                let (k0, k1) = (slab * BRICK, (slab * BRICK + BRICK).min(nz));
+                for j0 in (0..ny).step_by(BRICK) {
+                    for i0 in (0..nx).step_by(BRICK) {
+                        let lo = [i0, j0, k0];
+                        let hi = [(i0 + BRICK).min(nx), (j0 + BRICK).min(ny), k1];
+                        let count = (hi[0] - lo[0]) * (hi[1] - lo[1]) * (hi[2] - lo[2]);
+                        values.resize(count, 0.0);
+                        if density.range(&local_box_bounds(domain, lo, hi))[0].1 <= 0.0 {
+                            values.fill(0.0);
+                        } else if density.fill_cells(domain, lo, hi, values) {
+                            for v in values.iter_mut() {
+                                *v = if v.is_finite() { v.max(0.0) } else { 0.0 };
+                            }
+                        } else {
+                            scratch.clear();
+                            for k in lo[2]..hi[2] {
+                                for j in lo[1]..hi[1] {
+                                    for i in lo[0]..hi[0] {
+                                        scratch.push(domain.cell_center(i, j, k));
+                                    }
+                                }
+                            }
+                            scratch.eval(eval.as_mut(), values);
+                        }
+                        let row = hi[0] - lo[0];
+                        for (n, from) in values.chunks_exact(row).enumerate() {
+                            let (j, k) = (lo[1] + n % (hi[1] - lo[1]), n / (hi[1] - lo[1]));
+                            let at = lo[0] + nx * (j + ny * k);
+                            cells[at..at + row].copy_from_slice(from);
                         }
                     }
                 }
-                let mut values = vec![0f32; scratch.xs.len()];
-                scratch.eval(eval.as_mut(), &mut values);
-                Some(values)
             },
-        )
-        .collect();
-    let mut out = vec![0f32; nx * ny * nz];
-    for (b, values) in per_brick.into_iter().enumerate() {
-        let Some(values) = values else { continue };
-        let bi = [
-            b % bricks[0],
-            (b / bricks[0]) % bricks[1],
-            b / (bricks[0] * bricks[1]),
-        ];
-        let lo = [bi[0] * BRICK, bi[1] * BRICK, bi[2] * BRICK];
-        let hi = [
-            (lo[0] + BRICK).min(nx),
-            (lo[1] + BRICK).min(ny),
-            (lo[2] + BRICK).min(nz),
-        ];
-        let mut v = values.into_iter();
-        for k in lo[2]..hi[2] {
-            for j in lo[1]..hi[1] {
-                for i in lo[0]..hi[0] {
-                    out[i + nx * (j + ny * k)] = v.next().unwrap_or(0.0);
-                }
-            }
-        }
-    }
+        );
     out
 }
 

@@ -145,6 +145,20 @@ fn sweep_and_march_agree_with_the_ball_chord() {
         sweep_fine < 0.55 * sweep_mean,
         "{sweep_fine} vs {sweep_mean}"
     );
+    // The same light turned onto every axis and both directions: the sweep runs along x, y
+    // or z, forwards or backwards, with the same accuracy (the ball and cube are symmetric).
+    for axis in 0..3 {
+        for sign in [1.0, -1.0] {
+            let mut dir = [0.4, 0.3, 0.3];
+            dir[axis] = sign;
+            let dir = DVec3::from_array(dir);
+            let (mean, worst) = ball_errors(dir, TransmissivityMethod::Sweep, 1.0 / 32.0);
+            assert!(
+                mean < 0.006 && worst < 0.35,
+                "sweep towards {dir}: {mean} {worst}"
+            );
+        }
+    }
     // Light along a grid axis: upstream points are cell centres, and the sweep is the march.
     let (axis_mean, _) = ball_errors(-DVec3::Y, TransmissivityMethod::Sweep, 1.0 / 32.0);
     let (axis_march, _) = ball_errors(-DVec3::Y, TransmissivityMethod::March, 1.0 / 32.0);

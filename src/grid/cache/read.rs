@@ -20,7 +20,8 @@
 mod tests;
 
 use super::outside::Outside;
-use super::{BRICK, Cache, lock};
+use super::{BRICK, Cache, local_index, lock};
+use crate::grid::domain::Domain;
 use crate::grid::interp::{AxisStencil, axis_stencil};
 use crate::grid::points::{self, PointRead};
 use crate::grid::reach;
@@ -434,6 +435,34 @@ impl GridSource for Cache {
             Some(source) => source.grids(),
             None => Vec::new(),
         }
+    }
+
+    /// Copies the stored cells, a brick's row at a time, when `domain` is this cache's own.
+    fn cells(&self, domain: &Domain, lo: [usize; 3], hi: [usize; 3], out: &mut [f32]) -> bool {
+        if *domain != self.domain || (0..3).any(|a| hi[a] > self.shape.cells[a]) {
+            return false;
+        }
+        let width = self.width;
+        let mut at = 0;
+        for k in lo[2]..hi[2] {
+            for j in lo[1]..hi[1] {
+                let mut i = lo[0];
+                while i < hi[0] {
+                    let end = ((i / BRICK + 1) * BRICK).min(hi[0]);
+                    let values = self.brick_values(self.shape.brick_index([
+                        i / BRICK,
+                        j / BRICK,
+                        k / BRICK,
+                    ]));
+                    let from = local_index(i % BRICK, j % BRICK, k % BRICK) * width;
+                    let count = (end - i) * width;
+                    out[at..at + count].copy_from_slice(&values[from..from + count]);
+                    at += count;
+                    i = end;
+                }
+            }
+        }
+        true
     }
 
     /// Fills the bricks whose cells the interpolant reads inside `region`, on the calling
