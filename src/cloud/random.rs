@@ -44,6 +44,7 @@ pub fn threshold(p: f64) -> u16 {
     // Without branches, rounding half up by hand: this runs for every cell of a region update,
     // where values below 0, inside and above 1 are mixed unpredictably, and `f64::round` is a
     // library call on the baseline x86-64 target. `max` turns NaN into 0.
+    #[allow(clippy::manual_clamp)] // clamp keeps NaN; this maps it to 0
     let x = (p * 65535.0).max(0.0).min(65535.0);
     let t = x as i32;
     (t + (x - t as f64 >= 0.5) as i32) as u16
