@@ -71,17 +71,47 @@ fn probability_fields(r: &Field) -> CompiledField {
     CompiledField::prepared(&Field::vector_from(&hum, &act, &ext).unwrap()).unwrap()
 }
 
-/// Median seconds of `runs` calls of `f`.
-fn median<T>(runs: usize, mut f: impl FnMut() -> T) -> (f64, T) {
+/// CPU seconds used so far by all of this process's live threads, from the per-thread
+/// scheduler statistics (nanoseconds); zero where they are not available. Steadier than wall
+/// time when other work shares the machine.
+fn cpu_seconds() -> f64 {
+    let Ok(tasks) = std::fs::read_dir("/proc/self/task") else {
+        return 0.0;
+    };
+    tasks
+        .filter_map(|t| std::fs::read_to_string(t.ok()?.path().join("schedstat")).ok())
+        .filter_map(|s| s.split_whitespace().next()?.parse::<f64>().ok())
+        .sum::<f64>()
+        * 1e-9
+}
+
+/// Timing of a stage: median wall seconds of the runs, and CPU seconds per run (all threads).
+#[derive(Clone, Copy)]
+struct Timing {
+    wall: f64,
+    cpu: f64,
+}
+
+/// Times `runs` calls of `f` after one warm-up call (which also fills reusable buffers, as
+/// the previous frame of an animation does).
+fn median<T>(runs: usize, mut f: impl FnMut() -> T) -> (Timing, T) {
+    let mut last = std::hint::black_box(f());
     let mut times = Vec::with_capacity(runs);
-    let mut last = None;
+    let cpu = cpu_seconds();
     for _ in 0..runs {
         let started = Instant::now();
-        last = Some(std::hint::black_box(f()));
+        last = std::hint::black_box(f());
         times.push(started.elapsed().as_secs_f64());
     }
+    let cpu = (cpu_seconds() - cpu) / runs as f64;
     times.sort_by(f64::total_cmp);
-    (times[runs / 2], last.unwrap())
+    (
+        Timing {
+            wall: times[runs / 2],
+            cpu,
+        },
+        last,
+    )
 }
 
 /// The region-volume update: the three probability fields sampled at the cells.
@@ -185,7 +215,11 @@ fn main() {
             "smooth" => drop(smooth()),
             _ => drop(shade(&density, TransmissivityMethod::Sweep)),
         });
-        println!("{stage}: {:.2} ms (median of 41)", t * 1e3);
+        println!(
+            "{stage}: {:.2} ms wall (median of 41), {:.2} CPU-ms per run",
+            t.wall * 1e3,
+            t.cpu * 1e3
+        );
         return;
     }
     let (t_region, p_all) = median(5, || probabilities(&fields, &domain, &planes));
@@ -200,9 +234,9 @@ fn main() {
     let ms = |s: f64| s * 1e3;
     println!();
     println!(
-        "| stage | felt, {threads} threads (ms) | source, GeForce 8700M GT (ms) | felt / source |"
+        "| stage | felt, {threads} threads (ms, median wall) | felt CPU-ms per run | source, GeForce 8700M GT (ms) | felt wall / source |"
     );
-    println!("|---|---|---|---|");
+    println!("|---|---|---|---|---|");
     let rows = [
         (
             "region-volume update (3 fields of 26 ellipsoids, one pass)",
@@ -215,23 +249,26 @@ fn main() {
     ];
     for (name, t, source) in rows {
         println!(
-            "| {name} | {:.2} | {source} | {:.2} |",
-            ms(t),
-            ms(t) / source
+            "| {name} | {:.2} | {:.2} | {source} | {:.2} |",
+            ms(t.wall),
+            ms(t.cpu),
+            ms(t.wall) / source
         );
     }
-    let total_felt = t_region + t_step + t_smooth + t_shade;
-    let total_source = 5.263 + 12.5 + 6.024 + 8.696;
+    let wall: f64 = rows.iter().map(|r| r.1.wall).sum();
+    let cpu: f64 = rows.iter().map(|r| r.1.cpu).sum();
+    let source: f64 = rows.iter().map(|r| r.2).sum();
     println!(
-        "| whole update | {:.2} | {total_source:.1} | {:.2} |",
-        ms(total_felt),
-        ms(total_felt) / total_source
+        "| whole update | {:.2} | {:.2} | {source:.1} | {:.2} |",
+        ms(wall),
+        ms(cpu),
+        ms(wall) / source
     );
     println!();
     println!("smoothing filled {filled} of {total} bricks (the rest had no cloud within reach)");
     println!(
         "shading by the light cache's per-cell march instead: {:.0} ms ({:.0}x the sweep)",
-        ms(t_march),
-        t_march / t_shade
+        ms(t_march.wall),
+        t_march.wall / t_shade.wall
     );
 }

@@ -49,3 +49,16 @@ pub fn threshold(p: f64) -> u16 {
     let t = x as i32;
     (t + (x - t as f64 >= 0.5) as i32) as u16
 }
+
+/// `threshold` of each value, in a loop that vectorises: for an `f32` value, `p·65535` is exact
+/// in `f64` and so is adding one half, so truncating the sum rounds half up exactly as
+/// `threshold` does.
+pub fn thresholds(values: &[f32], out: &mut Vec<u16>) {
+    out.clear();
+    #[allow(clippy::manual_clamp)] // clamp keeps NaN; this maps it to 0
+    out.extend(
+        values
+            .iter()
+            .map(|&p| ((p as f64 * 65535.0).max(0.0).min(65535.0) + 0.5) as u16),
+    );
+}

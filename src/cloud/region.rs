@@ -9,7 +9,7 @@
 //! sky costs nothing there.
 
 use super::bits::Planes;
-use super::random::threshold;
+use super::random::{threshold, thresholds};
 use crate::failure::Outcome;
 use crate::field::{CompiledField, Field, MathFn};
 use crate::grid::domain::Domain;
@@ -302,10 +302,7 @@ fn sample_brick(
         points.values.resize(3 * count, 0.0);
         eval.eval_f32(&points.xs, &points.ys, &points.zs, &mut points.values);
         // All three components at once, in one loop the compiler vectorises.
-        points.thresholds.clear();
-        points
-            .thresholds
-            .extend(points.values.iter().map(|&v| threshold(v as f64)));
+        thresholds(&points.values, &mut points.thresholds);
     }
     let (nx, ny) = (planes.nx, planes.ny);
     for c in 0..3 {

@@ -507,6 +507,16 @@ fn a_cache_of_the_smoothed_cloud_holds_its_cells_values() {
 #[test]
 fn a_probability_becomes_the_nearest_sixteen_bit_threshold() {
     use super::random::threshold;
+    // The batch form agrees with the single one on every f32 it may meet, halves included.
+    let mut batch = Vec::new();
+    let values: Vec<f32> = (0..=65535u32 * 2)
+        .map(|t| t as f32 / 131070.0)
+        .chain([-1.0, 2.0, f32::NAN, f32::INFINITY, f32::NEG_INFINITY, 1e-30])
+        .collect();
+    super::random::thresholds(&values, &mut batch);
+    for (&v, &t) in values.iter().zip(&batch) {
+        assert_eq!(t, threshold(v as f64), "p = {v}");
+    }
     for (p, t) in [
         (f64::NAN, 0),
         (-1.0, 0),

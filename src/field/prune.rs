@@ -8,38 +8,70 @@
 //! shorter tape that gives the same values at every point of the box (in the manner of
 //! Fidget's tape simplification).
 //!
-//! The one key decision: a choice is decided only when the intervals separate strictly, or
-//! meet at a non-zero value. Two values meeting at zero may be `+0` and `−0`, and `max` of
-//! those is not specified bit for bit, so keeping the choice there keeps every pruned value
-//! identical to the unpruned tape's, not merely equal.
+//! The one key decision: a choice is decided only when the intervals separate strictly, meet
+//! at a non-zero value, or meet at zero where neither operand can be `−0`. `max` of `+0` and
+//! `−0` is not specified bit for bit, so a choice between values that may be zeros of either
+//! sign is kept, and every pruned value stays identical to the unpruned tape's, not merely
+//! equal. Which values can never be `−0` follows from a pass of simple rules (a constant `+0`,
+//! `1 − √s`, `max(p, 0)`: the shapes of profiles and masks), so the maximum of many
+//! `max(profile, 0)` terms does prune where only one of them reaches.
 
 use crate::field::interval::Interval;
-use crate::field::node::BinOp;
+use crate::field::node::{BinOp, MathFn};
 use crate::field::ssa::{Index, Inst, Ssa};
 
-/// Whether every value of `a` is certainly at least every value of `b` (see the module notes
-/// on zero).
-fn at_least(a: Interval, b: Interval) -> bool {
-    a.lo > b.hi || (a.lo == b.hi && a.lo != 0.0)
+/// Whether every value of `a` is certainly at least every value of `b`, so that `max(a, b)`
+/// is `a` bit for bit; `unsigned` says that neither can be `−0` (see the module notes).
+fn at_least(a: Interval, b: Interval, unsigned: bool) -> bool {
+    a.lo > b.hi || (a.lo == b.hi && (a.lo != 0.0 || unsigned))
+}
+
+/// For each instruction, whether its value is certainly never `−0` over the region whose
+/// instruction intervals are `iv` (NaN is not `−0`; an interval that may hold NaN is the whole
+/// line, so `lo > 0` and `hi < 0` exclude it).
+fn never_negative_zero(ssa: &Ssa, iv: &[Interval]) -> Vec<bool> {
+    let mut never: Vec<bool> = Vec::with_capacity(ssa.insts.len());
+    for inst in &ssa.insts {
+        let n = |i: &Index| never[*i as usize];
+        let at = |i: &Index| iv[*i as usize];
+        let value = match inst {
+            Inst::Const(c) => !(*c == 0.0 && c.is_sign_negative()),
+            Inst::Unary(MathFn::Abs | MathFn::Exp, _) => true,
+            Inst::Unary(MathFn::Sqrt, [a]) => n(a),
+            // A zero sum is −0 only when both terms are −0; `a − b` only when `a` is.
+            Inst::Binary(BinOp::Add, [a, b]) => n(a) || n(b),
+            Inst::Binary(BinOp::Sub, [a, _]) => n(a),
+            // A product of non-negative factors, neither −0, is +0 or positive (underflow too).
+            Inst::Binary(BinOp::Mul, [a, b]) => n(a) && n(b) && at(a).lo >= 0.0 && at(b).lo >= 0.0,
+            Inst::Binary(BinOp::Max, [a, b]) => (n(a) && n(b)) || at(a).lo > 0.0 || at(b).lo > 0.0,
+            Inst::Binary(BinOp::Min, [a, b]) => (n(a) && n(b)) || at(a).hi < 0.0 || at(b).hi < 0.0,
+            Inst::Select([_, a, b]) => n(a) && n(b),
+            _ => false,
+        };
+        never.push(value);
+    }
+    never
 }
 
 /// What a choice instruction reduces to over a region: the operand it certainly takes, if any.
-fn decided(inst: &Inst, iv: &[Interval]) -> Option<Index> {
+fn decided(inst: &Inst, iv: &[Interval], never_negative_zero: &[bool]) -> Option<Index> {
     let at = |i: Index| iv[i as usize];
+    let unsigned =
+        |a: Index, b: Index| never_negative_zero[a as usize] && never_negative_zero[b as usize];
     match inst {
         Inst::Binary(BinOp::Max, [a, b]) => {
-            if at_least(at(*a), at(*b)) {
+            if at_least(at(*a), at(*b), unsigned(*a, *b)) {
                 Some(*a)
-            } else if at_least(at(*b), at(*a)) {
+            } else if at_least(at(*b), at(*a), unsigned(*a, *b)) {
                 Some(*b)
             } else {
                 None
             }
         }
         Inst::Binary(BinOp::Min, [a, b]) => {
-            if at_least(at(*b), at(*a)) {
+            if at_least(at(*b), at(*a), unsigned(*a, *b)) {
                 Some(*a)
-            } else if at_least(at(*a), at(*b)) {
+            } else if at_least(at(*a), at(*b), unsigned(*a, *b)) {
                 Some(*b)
             } else {
                 None
@@ -80,9 +112,10 @@ pub fn choices(ssa: &Ssa) -> Vec<Index> {
 /// For each choice of `choices`, the operand it takes over the region whose instruction
 /// intervals are `iv` (`Index::MAX` where the region does not decide it).
 pub fn decisions(ssa: &Ssa, choices: &[Index], iv: &[Interval]) -> Vec<Index> {
+    let never = never_negative_zero(ssa, iv);
     choices
         .iter()
-        .map(|&c| decided(&ssa.insts[c as usize], iv).unwrap_or(Index::MAX))
+        .map(|&c| decided(&ssa.insts[c as usize], iv, &never).unwrap_or(Index::MAX))
         .collect()
 }
 

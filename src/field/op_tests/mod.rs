@@ -387,3 +387,4 @@ fn noise_in_single_precision_is_within_its_stated_bounds() {
 }
 
 mod intervals;
+mod pruning;
