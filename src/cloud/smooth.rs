@@ -24,6 +24,10 @@ use std::sync::Arc;
 /// Largest smoothing radius, in cells (the window along x is read as one byte).
 pub const MAX_RADIUS: usize = 3;
 
+/// Bits of the all-frames window index at most: a table of 2^15 weights (128 KiB) still sits
+/// in a core's cache, and covers radius 2 with three frames.
+const COMBINED_BITS: usize = 15;
+
 /// The smoothing window.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Smoothing {
@@ -39,6 +43,8 @@ pub struct SmoothedCloud {
     planes: Planes,
     /// `cld` now and before, newest first.
     frames: Vec<Arc<Vec<u64>>>,
+    /// The cells with cloud in any of the frames (their union), for the range test.
+    any_frame: Vec<u64>,
     radius: usize,
     /// Weight of each frame, newest first.
     frame_weight: Vec<u32>,
@@ -46,6 +52,9 @@ pub struct SmoothedCloud {
     axis_weight: Vec<u32>,
     /// Weighted count of the `2r+1` bits of a window along x, by the window's bits.
     row_sum: Vec<u32>,
+    /// The same for the windows of all frames at once, weighted by frame (frame `f`'s window
+    /// in bits `f·(2r+1)..`), when that index has at most `COMBINED_BITS` bits; else empty.
+    frames_sum: Vec<u32>,
     normaliser: f64,
 }
 
@@ -74,14 +83,36 @@ impl SmoothedCloud {
             .collect();
         let axis: u32 = axis_weight.iter().sum();
         let normaliser = (axis * axis * axis * frame_weight.iter().sum::<u32>()) as f64;
+        let width = 2 * r + 1;
+        let frames_sum: Vec<u32> = if width * frames.len() <= COMBINED_BITS {
+            (0..1usize << (width * frames.len()))
+                .map(|bits| {
+                    (0..frames.len())
+                        .map(|f| {
+                            frame_weight[f] * row_sum[(bits >> (f * width)) & ((1 << width) - 1)]
+                        })
+                        .sum()
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let mut any_frame = vec![0u64; planes.len()];
+        for frame in &frames {
+            for (any, &word) in any_frame.iter_mut().zip(frame.iter()) {
+                *any |= word;
+            }
+        }
         SmoothedCloud {
             domain,
             planes,
             frames,
+            any_frame,
             radius: r,
             frame_weight,
             axis_weight,
             row_sum,
+            frames_sum,
             normaliser,
         }
     }
@@ -135,20 +166,25 @@ impl SmoothedCloud {
             return false;
         }
         let (w0, w1) = ((lo[0] / 64) as usize, (hi[0] / 64) as usize);
-        for frame in &self.frames {
-            for k in lo[2]..=hi[2] {
-                for j in lo[1]..=hi[1] {
-                    let row = p.row(j as usize, k as usize) * p.words;
-                    for w in w0..=w1 {
-                        let first = (64 * w) as i64;
-                        let from = (lo[0] - first).clamp(0, 63) as u32;
-                        let to = (hi[0] - first + 1).clamp(0, 64) as u32;
-                        let mask = if to >= 64 { u64::MAX } else { (1u64 << to) - 1 }
-                            & !((1u64 << from) - 1);
-                        if frame[row + w] & mask != 0 {
-                            return true;
-                        }
-                    }
+        // The mask of each word's cells within [lo.x, hi.x].
+        let masks: Vec<u64> = (w0..=w1)
+            .map(|w| {
+                let first = (64 * w) as i64;
+                let from = (lo[0] - first).clamp(0, 63) as u32;
+                let to = (hi[0] - first + 1).clamp(0, 64) as u32;
+                (if to >= 64 { u64::MAX } else { (1u64 << to) - 1 }) & !((1u64 << from) - 1)
+            })
+            .collect();
+        for k in lo[2]..=hi[2] {
+            for j in lo[1]..=hi[1] {
+                let row = p.row(j as usize, k as usize) * p.words;
+                let words = &self.any_frame[row + w0..=row + w1];
+                if words
+                    .iter()
+                    .zip(&masks)
+                    .any(|(word, mask)| word & mask != 0)
+                {
+                    return true;
                 }
             }
         }
@@ -178,6 +214,62 @@ impl SmoothedCloud {
         out.extend(sums.out.iter().map(|&s| s as f64 / self.normaliser));
     }
 
+    /// The x windows of row `row` from cell `x_lo` on, weighted and summed over the frames,
+    /// added into `along_x`: one table lookup per cell and frame.
+    fn along_x_by_frame(&self, row: usize, x_lo: usize, along_x: &mut [u32]) {
+        let (p, r) = (&self.planes, self.radius);
+        let mask = (1u64 << (2 * r + 1)) - 1;
+        // Cells along x read at once: a chunk plus its window's reach fits in one word.
+        let chunk = 64 - 2 * r;
+        for (frame, &tw) in self.frames.iter().zip(&self.frame_weight) {
+            let base = &frame[row * p.words..(row + 1) * p.words];
+            for x0 in (0..along_x.len()).step_by(chunk) {
+                let count = chunk.min(along_x.len() - x0);
+                let start = (x_lo + x0) as i64 - r as i64;
+                let bits = segment(base, start, (count + 2 * r) as u32);
+                if bits == 0 {
+                    continue;
+                }
+                for (x, value) in along_x[x0..x0 + count].iter_mut().enumerate() {
+                    *value += tw * self.row_sum[(bits >> x & mask) as usize];
+                }
+            }
+        }
+    }
+
+    /// The same, one lookup per cell for all frames together (`frames_sum`).
+    fn along_x_together(&self, row: usize, x_lo: usize, along_x: &mut [u32]) {
+        let (p, r) = (&self.planes, self.radius);
+        let width = 2 * r + 1;
+        let mask = (1u64 << width) - 1;
+        let chunk = 64 - 2 * r;
+        let mut bits = [0u64; 8];
+        for x0 in (0..along_x.len()).step_by(chunk) {
+            let count = chunk.min(along_x.len() - x0);
+            let start = (x_lo + x0) as i64 - r as i64;
+            let mut any = 0;
+            for (bits, frame) in bits.iter_mut().zip(&self.frames) {
+                *bits = segment(
+                    &frame[row * p.words..(row + 1) * p.words],
+                    start,
+                    (count + 2 * r) as u32,
+                );
+                any |= *bits;
+            }
+            if any == 0 {
+                continue;
+            }
+            let bits = &bits[..self.frames.len()];
+            for (x, value) in along_x[x0..x0 + count].iter_mut().enumerate() {
+                let mut index = 0;
+                for (f, b) in bits.iter().enumerate() {
+                    index |= ((b >> x & mask) as usize) << (f * width);
+                }
+                *value += self.frames_sum[index];
+            }
+        }
+    }
+
     /// The weighted sums of every cell in `[lo, hi)` into `sums.out` (the density times the
     /// normaliser), separably: the windows along x per frame, then the weights along y, then
     /// along z. Every weight is a whole number, so the sums are exact integers and the same
@@ -190,9 +282,6 @@ impl SmoothedCloud {
         let (j0, j1) = (lo[1].saturating_sub(r), (hi[1] + r).min(p.ny));
         let (k0, k1) = (lo[2].saturating_sub(r), (hi[2] + r).min(p.nz));
         let (hj, hk) = (j1 - j0, k1 - k0);
-        let mask = (1u64 << (2 * r + 1)) - 1;
-        // Cells along x read at once: a chunk plus its window's reach fits in one word.
-        let chunk = 64 - 2 * r;
         // Along x, frames summed: along_x[i + n0·(j − j0 + hj·(k − k0))].
         let along_x = &mut sums.along_x;
         along_x.clear();
@@ -201,20 +290,11 @@ impl SmoothedCloud {
             for j in j0..j1 {
                 let at = n[0] * ((j - j0) + hj * (k - k0));
                 let row = p.row(j, k);
-                for (frame, &tw) in self.frames.iter().zip(&self.frame_weight) {
-                    let base = &frame[row * p.words..(row + 1) * p.words];
-                    for x0 in (0..n[0]).step_by(chunk) {
-                        let count = chunk.min(n[0] - x0);
-                        let start = (lo[0] + x0) as i64 - r as i64;
-                        let bits = segment(base, start, (count + 2 * r) as u32);
-                        if bits == 0 {
-                            continue;
-                        }
-                        for (x, value) in along_x[at + x0..at + x0 + count].iter_mut().enumerate() {
-                            let window = (bits >> x & mask) as usize;
-                            *value += tw * self.row_sum[window];
-                        }
-                    }
+                let along_x = &mut along_x[at..at + n[0]];
+                if self.frames_sum.is_empty() {
+                    self.along_x_by_frame(row, lo[0], along_x);
+                } else {
+                    self.along_x_together(row, lo[0], along_x);
                 }
             }
         }
