@@ -78,7 +78,7 @@ impl Session {
             engine: engine.clone(),
             interp: Interpreter::new(sources.clone(), out),
             sources,
-            env: CheckEnv::default(),
+            env: CheckEnv::new(crate::interp::registry::registry().signatures()),
             loaded: HashSet::new(),
             repl_inputs: 0,
             at_prompt: false,

@@ -249,7 +249,10 @@ impl Interpreter {
             .collect();
         let rest = rest.iter().filter_map(|i| taken[*i].take()).collect();
         let previous = std::mem::replace(&mut self.call_span, span);
-        let result = (builtin.run)(
+        let run = registry::registry()
+            .implementation(name)
+            .expect("every registered builtin has an implementation");
+        let result = run(
             self,
             Args {
                 values: converted,
