@@ -252,15 +252,7 @@ impl Interpreter {
         let run = registry::registry()
             .implementation(name)
             .expect("every registered builtin has an implementation");
-        let result = run(
-            self,
-            Args {
-                values: converted,
-                rest,
-                form,
-                signature: sig,
-            },
-        );
+        let result = run(self, Args::new(builtin, form, converted, rest));
         self.call_span = previous;
         let value = result.map_err(|f| self.error(span, f))?;
         if matches!(value, Value::Field(_)) {

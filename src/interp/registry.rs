@@ -12,6 +12,7 @@ use super::value::Value;
 use crate::failure::Failure;
 use std::collections::HashMap;
 use std::fmt;
+use std::ops::RangeInclusive;
 use std::sync::OnceLock;
 
 pub use crate::check::resolve::{Culprit, Resolution, check_choice, resolve};
@@ -22,81 +23,208 @@ pub use crate::check::signature::{
 /// The arguments of one builtin call, already converted to the matched signature's types and
 /// put in parameter order (`None` for an optional parameter not given).
 ///
-/// Builtins read them by parameter name (`a.float("step")`), so the signature string is the
-/// one place a parameter's position is written; a positional index still works for the
-/// builtins whose forms differ only in arity.
+/// Builtins read them by parameter name only (`a.float("step")`), so the signature string is
+/// the one place a parameter's position is written; there is no positional access to creep
+/// back. Range checks live here too (`positive_float`, `float_in`, ...), so every builtin
+/// words "out of range" the same way.
 pub struct Args {
-    pub values: Vec<Option<Value>>,
+    values: Vec<Option<Value>>,
+    /// The variadic arguments after the named ones (`print`, `format`).
     pub rest: Vec<Value>,
     /// Index of the signature that matched, for builtins whose forms differ in behaviour.
     pub form: usize,
     /// The matched signature, for reading arguments by name.
     pub signature: &'static Signature,
-}
-
-/// How a builtin names one of its arguments: by position or by parameter name.
-pub trait ArgKey: Copy + fmt::Display {
-    fn index(self, signature: &Signature) -> Option<usize>;
-}
-
-impl ArgKey for usize {
-    fn index(self, _: &Signature) -> Option<usize> {
-        Some(self)
-    }
-}
-
-impl ArgKey for &str {
-    fn index(self, signature: &Signature) -> Option<usize> {
-        signature.param_index(self)
-    }
+    /// The builtin called, for messages and for telling a misspelt name from one that only
+    /// another form has.
+    builtin: &'static Builtin,
 }
 
 impl Args {
-    fn slot<K: ArgKey>(&self, key: K) -> Option<usize> {
-        let i = key.index(self.signature);
-        // A name that is not a parameter of the matched form is a mistake in felt's source,
-        // caught by the builtin's tests; at run time it reads as "not given".
+    /// The arguments of a call to `builtin` that matched its form `form`.
+    pub fn new(
+        builtin: &'static Builtin,
+        form: usize,
+        values: Vec<Option<Value>>,
+        rest: Vec<Value>,
+    ) -> Args {
+        Args {
+            values,
+            rest,
+            form,
+            signature: &builtin.signatures[form],
+            builtin,
+        }
+    }
+
+    fn slot(&self, key: &str) -> Option<usize> {
+        let i = self.signature.param_index(key);
+        // A name that no form has is a mistake in felt's source, caught by the builtin's
+        // tests; at run time it reads as "not given". A name only other forms have is simply
+        // not given in this one.
         debug_assert!(
-            i.is_some(),
-            "builtin reads `{key}`, which its signature lacks"
+            i.is_some()
+                || self
+                    .builtin
+                    .signatures
+                    .iter()
+                    .any(|s| s.param_index(key).is_some()),
+            "builtin `{}` reads `{key}`, which none of its signatures has",
+            self.builtin.name
         );
         i
     }
 
-    pub fn get<K: ArgKey>(&self, key: K) -> Result<&Value, Failure> {
+    pub fn get(&self, key: &str) -> Result<&Value, Failure> {
         self.opt(key)
             .ok_or_else(|| Failure::new(format!("missing argument `{key}`")))
     }
 
-    pub fn opt<K: ArgKey>(&self, key: K) -> Option<&Value> {
+    pub fn opt(&self, key: &str) -> Option<&Value> {
         self.slot(key)
             .and_then(|i| self.values.get(i))
             .and_then(|v| v.as_ref())
     }
 
+    /// The argument of the first of `keys` that the matched form has: one parameter that the
+    /// forms name differently (`grad(scalarfield f)`, `grad(vectorfield v)`).
+    pub fn one_of(&self, keys: &[&str]) -> Result<&Value, Failure> {
+        let key = keys
+            .iter()
+            .find(|k| self.signature.param_index(k).is_some())
+            .or(keys.first())
+            .copied()
+            .unwrap_or_default();
+        self.get(key)
+    }
+
     /// Whether the caller gave this argument.
-    pub fn given<K: ArgKey>(&self, key: K) -> bool {
+    pub fn given(&self, key: &str) -> bool {
         self.opt(key).is_some()
     }
 
-    pub fn float<K: ArgKey>(&self, key: K) -> Result<f64, Failure> {
+    pub fn float(&self, key: &str) -> Result<f64, Failure> {
         self.get(key)?.as_float()
     }
 
-    pub fn int<K: ArgKey>(&self, key: K) -> Result<i64, Failure> {
+    pub fn int(&self, key: &str) -> Result<i64, Failure> {
         self.get(key)?.as_int()
     }
 
-    pub fn opt_float<K: ArgKey>(&self, key: K) -> Result<Option<f64>, Failure> {
+    pub fn opt_float(&self, key: &str) -> Result<Option<f64>, Failure> {
         self.opt(key).map(|v| v.as_float()).transpose()
     }
 
-    pub fn opt_int<K: ArgKey>(&self, key: K) -> Result<Option<i64>, Failure> {
+    pub fn opt_int(&self, key: &str) -> Result<Option<i64>, Failure> {
         self.opt(key).map(|v| v.as_int()).transpose()
     }
 
-    pub fn string<K: ArgKey>(&self, key: K) -> Result<&str, Failure> {
+    pub fn string(&self, key: &str) -> Result<&str, Failure> {
         self.get(key)?.as_str()
+    }
+
+    /// A float that must be finite and above zero.
+    pub fn positive_float(&self, key: &str) -> Result<f64, Failure> {
+        let v = self.float(key)?;
+        self.check_positive(key, v)
+    }
+
+    /// `positive_float`, for an optional parameter.
+    pub fn opt_positive_float(&self, key: &str) -> Result<Option<f64>, Failure> {
+        match self.opt_float(key)? {
+            Some(v) => self.check_positive(key, v).map(Some),
+            None => Ok(None),
+        }
+    }
+
+    /// A whole number above zero, as a count.
+    pub fn positive_int(&self, key: &str) -> Result<usize, Failure> {
+        let n = self.int(key)?;
+        self.check_count(key, n)
+    }
+
+    /// `positive_int`, for an optional parameter.
+    pub fn opt_positive_int(&self, key: &str) -> Result<Option<usize>, Failure> {
+        match self.opt_int(key)? {
+            Some(n) => self.check_count(key, n).map(Some),
+            None => Ok(None),
+        }
+    }
+
+    /// A float in `range` (ends included).
+    pub fn float_in(&self, key: &str, range: RangeInclusive<f64>) -> Result<f64, Failure> {
+        let v = self.float(key)?;
+        self.check_in(key, v, range)
+    }
+
+    /// `float_in`, for an optional parameter.
+    pub fn opt_float_in(
+        &self,
+        key: &str,
+        range: RangeInclusive<f64>,
+    ) -> Result<Option<f64>, Failure> {
+        match self.opt_float(key)? {
+            Some(v) => self.check_in(key, v, range).map(Some),
+            None => Ok(None),
+        }
+    }
+
+    /// A whole number in `range` (ends included), for an optional parameter.
+    pub fn opt_int_in(
+        &self,
+        key: &str,
+        range: RangeInclusive<i64>,
+    ) -> Result<Option<i64>, Failure> {
+        match self.opt_int(key)? {
+            Some(n) if !range.contains(&n) => Err(self.out_of(key, n, range.start(), range.end())),
+            n => Ok(n),
+        }
+    }
+
+    /// How a message names parameter `key`: "sphere radius".
+    fn what(&self, key: &str) -> String {
+        format!("{} {key}", self.builtin.name)
+    }
+
+    fn check_positive(&self, key: &str, v: f64) -> Result<f64, Failure> {
+        if v.is_finite() && v > 0.0 {
+            Ok(v)
+        } else {
+            Err(Failure::new(format!(
+                "{} must be positive, found {v}",
+                self.what(key)
+            )))
+        }
+    }
+
+    fn check_count(&self, key: &str, n: i64) -> Result<usize, Failure> {
+        usize::try_from(n).ok().filter(|&n| n > 0).ok_or_else(|| {
+            Failure::new(format!(
+                "{} must be a positive whole number, found {n}",
+                self.what(key)
+            ))
+        })
+    }
+
+    fn check_in(&self, key: &str, v: f64, range: RangeInclusive<f64>) -> Result<f64, Failure> {
+        if range.contains(&v) {
+            Ok(v)
+        } else {
+            Err(self.out_of(key, v, range.start(), range.end()))
+        }
+    }
+
+    fn out_of(
+        &self,
+        key: &str,
+        v: impl fmt::Display,
+        lo: impl fmt::Display,
+        hi: impl fmt::Display,
+    ) -> Failure {
+        Failure::new(format!(
+            "{} must be between {lo} and {hi}, found {v}",
+            self.what(key)
+        ))
     }
 }
 

@@ -66,18 +66,21 @@ fn print(interp: &mut Interpreter, args: Args) -> Outcome<Value> {
 }
 
 fn str_of(_: &mut Interpreter, args: Args) -> Outcome<Value> {
-    Ok(Value::string(&args.get(0)?.to_string()))
+    Ok(Value::string(&args.get("x")?.to_string()))
 }
 
 fn format_builtin(_: &mut Interpreter, args: Args) -> Outcome<Value> {
-    Ok(Value::string(&format::format(args.string(0)?, &args.rest)?))
+    Ok(Value::string(&format::format(
+        args.string("template")?,
+        &args.rest,
+    )?))
 }
 
 fn size(_: &mut Interpreter, args: Args) -> Outcome<Value> {
-    if let Value::Particles(p) = args.get(0)? {
+    if let Some(Value::Particles(p)) = args.opt("p") {
         return Ok(Value::Int(p.len() as i64));
     }
-    Ok(Value::Int(args.get(0)?.as_array()?.len() as i64))
+    Ok(Value::Int(args.get("a")?.as_array()?.len() as i64))
 }
 
 fn clock(interp: &mut Interpreter, _: Args) -> Outcome<Value> {
@@ -85,7 +88,7 @@ fn clock(interp: &mut Interpreter, _: Args) -> Outcome<Value> {
 }
 
 fn seed(interp: &mut Interpreter, args: Args) -> Outcome<Value> {
-    let n = args.int(0)?;
+    let n = args.int("n")?;
     interp.noise_seed = u32::try_from(n).map_err(|_| {
         Failure::new(format!(
             "a seed must be between 0 and {}, found {n}",
@@ -96,7 +99,7 @@ fn seed(interp: &mut Interpreter, args: Args) -> Outcome<Value> {
 }
 
 fn to_int(_: &mut Interpreter, args: Args) -> Outcome<Value> {
-    let x = args.float(0)?;
+    let x = args.float("x")?;
     if !x.is_finite() || x.abs() >= 9.2e18 {
         return Err(Failure::new(format!("{x} does not fit in an int")));
     }
@@ -104,5 +107,5 @@ fn to_int(_: &mut Interpreter, args: Args) -> Outcome<Value> {
 }
 
 fn to_float(_: &mut Interpreter, args: Args) -> Outcome<Value> {
-    Ok(Value::Float(args.float(0)?))
+    Ok(Value::Float(args.float("x")?))
 }
