@@ -78,6 +78,11 @@ fn run(cli: Cli) -> ExitCode {
             tile,
         } => {
             let mut set = set;
+            // First: any session made on this thread (even the one that reads the `frame`
+            // param below) starts the thread's worker pool, at its default size.
+            if let Err(code) = set_threads(threads) {
+                return code;
+            }
             // What this run owns (budget, output settings, band), set up before it starts.
             let engine = felt::engine::Engine::new();
             if let Some(range) = &frames {
@@ -98,9 +103,6 @@ fn run(cli: Cli) -> ExitCode {
             }
             if let Some(band) = tile {
                 let _ = engine.band.set(band);
-            }
-            if let Err(code) = set_threads(threads) {
-                return code;
             }
             // Ctrl-C or SIGTERM in a batch run: no half-written temporary is left behind.
             let _ = ctrlc::set_handler(|| {
