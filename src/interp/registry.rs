@@ -298,6 +298,51 @@ mod tests {
     use super::*;
     use crate::check::signature::parse_form;
 
+    /// The arguments of `builtin`'s first form with only `given` given.
+    fn args(builtin: &str, given: &[(&str, Value)]) -> Args {
+        let builtin = registry().get(builtin).unwrap();
+        let signature = &builtin.signatures[0];
+        let mut values = vec![None; signature.params.len()];
+        for (name, value) in given {
+            values[signature.param_index(name).unwrap()] = Some(value.clone());
+        }
+        Args::new(builtin, 0, values, Vec::new())
+    }
+
+    #[test]
+    fn range_checks_read_by_name_and_word_every_message_alike() {
+        let a = args("sphere", &[("radius", Value::Float(-1.0))]);
+        let message = a.positive_float("radius").unwrap_err().message;
+        assert_eq!(message, "sphere radius must be positive, found -1");
+        let a = args("sphere", &[("radius", Value::Float(f64::NAN))]);
+        assert!(a.positive_float("radius").is_err());
+        let a = args("sphere", &[("radius", Value::Float(0.5))]);
+        assert_eq!(a.positive_float("radius").unwrap(), 0.5);
+        assert!(!a.given("center"));
+        assert_eq!(
+            a.get("center").unwrap_err().message,
+            "missing argument `center`"
+        );
+
+        let a = args(
+            "render",
+            &[("width", Value::Int(0)), ("spp", Value::Int(4))],
+        );
+        assert_eq!(
+            a.opt_positive_int("width").unwrap_err().message,
+            "render width must be a positive whole number, found 0"
+        );
+        assert_eq!(a.opt_positive_int("spp").unwrap(), Some(4));
+        assert_eq!(a.opt_positive_int("height").unwrap(), None);
+
+        let a = args("render", &[("albedo", Value::Float(1.5))]);
+        assert_eq!(
+            a.opt_float_in("albedo", 0.0..=1.0).unwrap_err().message,
+            "render albedo must be between 0 and 1, found 1.5"
+        );
+        assert_eq!(a.opt_int_in("seed", 0..=9).unwrap(), None);
+    }
+
     #[test]
     fn every_builtin_form_parses_and_prints_back() {
         let r = registry();
