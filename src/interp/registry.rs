@@ -169,6 +169,16 @@ impl Args {
         }
     }
 
+    /// A whole number in `range` (ends included).
+    pub fn int_in(&self, key: &str, range: RangeInclusive<i64>) -> Result<i64, Failure> {
+        let n = self.int(key)?;
+        if range.contains(&n) {
+            Ok(n)
+        } else {
+            Err(self.out_of(key, n, range.start(), range.end()))
+        }
+    }
+
     /// A whole number in `range` (ends included), for an optional parameter.
     pub fn opt_int_in(
         &self,

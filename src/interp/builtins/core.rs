@@ -88,13 +88,7 @@ fn clock(interp: &mut Interpreter, _: Args) -> Outcome<Value> {
 }
 
 fn seed(interp: &mut Interpreter, args: Args) -> Outcome<Value> {
-    let n = args.int("n")?;
-    interp.noise_seed = u32::try_from(n).map_err(|_| {
-        Failure::new(format!(
-            "a seed must be between 0 and {}, found {n}",
-            u32::MAX
-        ))
-    })?;
+    interp.noise_seed = args.int_in("n", 0..=u32::MAX as i64)? as u32;
     Ok(Value::Void)
 }
 

@@ -111,14 +111,8 @@ pub fn register(r: &mut Registry) {
             let Value::Domain(d) = a.get("d")? else {
                 return Err(Failure::new("gaussiannoise needs a domain"));
             };
-            let seed = match a.opt_int("seed")? {
-                Some(s) if (0..=u32::MAX as i64).contains(&s) => s as u32,
-                Some(s) => {
-                    return Err(Failure::new(format!(
-                        "a seed is a whole number from 0 to {}, found {s}",
-                        u32::MAX
-                    )));
-                }
+            let seed = match a.opt_int_in("seed", 0..=u32::MAX as i64)? {
+                Some(s) => s as u32,
                 None => interp.noise_seed,
             };
             let vector = a.form == 1;
@@ -165,13 +159,7 @@ pub fn register(r: &mut Registry) {
 /// A noise kernel at `x * frequency`, with the script's seed unless one is given.
 fn base_noise(interp: &Interpreter, a: &Args, kind: NoiseKind) -> Outcome<Field> {
     let frequency = a.opt_positive_float("frequency")?.unwrap_or(1.0);
-    let seed = match a.opt_int("seed")? {
-        Some(s) if !(0..=u32::MAX as i64).contains(&s) => {
-            return Err(Failure::new(format!(
-                "a seed is a whole number from 0 to {}, found {s}",
-                u32::MAX
-            )));
-        }
+    let seed = match a.opt_int_in("seed", 0..=u32::MAX as i64)? {
         Some(s) => s as u32,
         None => interp.noise_seed,
     };
