@@ -1,7 +1,7 @@
 //! The engine context: the state one run of felt owns — its memory budget, its `--profile`
-//! rows, its interrupt flag, its output settings and the band it renders — kept in one value instead of in
-//! process-wide statics, so two sessions in one process (tests, a host application embedding
-//! felt) never see each other's usage, profiles or Ctrl-C.
+//! rows, its interrupt flag, its output settings and the band it renders — kept in one value
+//! instead of in process-wide statics, so two sessions in one process (tests, a host
+//! application embedding felt) never see each other's usage, profiles or Ctrl-C.
 //!
 //! The key decision is how deep code finds its engine without every function taking one: a
 //! session *enters* its engine on the thread it runs on (a guard sets a thread-local "current
