@@ -5,39 +5,127 @@
 //!
 //! Long-lived storage takes a `Reservation` that gives its bytes back when dropped (a cache
 //! holds one for as long as it lives); short-lived values are only checked against what is
-//! left. The budget is `--memory-limit` when given, else half of the memory this process may
+//! left. Each engine (`crate::engine`) has its own budget; the free functions here use the
+//! current one. The budget is `--memory-limit` when given, else half of the memory this process may
 //! use: the smallest of physical memory, the cgroup's `memory.max` and the address-space and
 //! data-segment limits (`ulimit -v`, `ulimit -d`). Half, because the budget counts the large
 //! buffers only; the interpreter, field graphs and per-thread scratch live beside them.
 
 use crate::failure::{Failure, Outcome};
+use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 
-/// The budget in bytes; 0 until set (the default is then worked out on first use).
-static LIMIT: AtomicU64 = AtomicU64::new(0);
-/// Bytes held by live reservations.
-static USED: AtomicU64 = AtomicU64::new(0);
-
-/// Sets the budget, in bytes.
-pub fn set_limit(bytes: u64) {
-    LIMIT.store(bytes.max(1), Ordering::Relaxed);
+/// One engine's budget (see `crate::engine`): its limit and what live reservations hold.
+#[derive(Debug, Default)]
+pub struct Budget {
+    /// The budget in bytes; 0 until set (the default is then worked out on first use).
+    limit: AtomicU64,
+    /// Bytes held by live reservations.
+    used: AtomicU64,
 }
 
-/// The budget, in bytes.
-pub fn limit() -> u64 {
-    match LIMIT.load(Ordering::Relaxed) {
-        0 => {
-            let default = available_memory().map(|m| m / 2).unwrap_or(4 << 30);
-            LIMIT.store(default, Ordering::Relaxed);
-            default
+impl Budget {
+    /// Sets the budget, in bytes.
+    pub fn set_limit(&self, bytes: u64) {
+        self.limit.store(bytes.max(1), Ordering::Relaxed);
+    }
+
+    /// The budget, in bytes.
+    pub fn limit(&self) -> u64 {
+        match self.limit.load(Ordering::Relaxed) {
+            0 => {
+                let default = default_limit();
+                self.limit.store(default, Ordering::Relaxed);
+                default
+            }
+            limit => limit,
         }
-        limit => limit,
+    }
+
+    /// Bytes held by live reservations now.
+    pub fn used(&self) -> u64 {
+        self.used.load(Ordering::Relaxed)
+    }
+
+    /// Takes `bytes` of the budget for storage that lives on (a cache, a buffer).
+    pub fn reserve(self: &Arc<Self>, bytes: f64, what: &str) -> Outcome<Reservation> {
+        if !(bytes.is_finite() && bytes >= 0.0) || bytes > u64::MAX as f64 {
+            return Err(self.over(what, bytes));
+        }
+        let wanted = bytes as u64;
+        let limit = self.limit();
+        let mut current = self.used.load(Ordering::Relaxed);
+        loop {
+            if current.saturating_add(wanted) > limit {
+                return Err(self.over(what, bytes));
+            }
+            match self.used.compare_exchange_weak(
+                current,
+                current + wanted,
+                Ordering::Relaxed,
+                Ordering::Relaxed,
+            ) {
+                Ok(_) => {
+                    return Ok(Reservation {
+                        bytes: wanted,
+                        budget: self.clone(),
+                    });
+                }
+                Err(actual) => current = actual,
+            }
+        }
+    }
+
+    /// Checks that `bytes` fit in what is left of the budget, without holding them.
+    pub fn check(&self, bytes: f64, what: &str) -> Outcome<()> {
+        if !(bytes.is_finite() && bytes >= 0.0) || bytes + self.used() as f64 > self.limit() as f64
+        {
+            return Err(self.over(what, bytes));
+        }
+        Ok(())
+    }
+
+    fn over(&self, what: &str, bytes: f64) -> Failure {
+        let (limit, used) = (self.limit() as f64, self.used() as f64);
+        let held = if used > 0.0 {
+            format!(
+                " ({} of it already held by this run's caches and buffers)",
+                human(used)
+            )
+        } else {
+            String::new()
+        };
+        Failure::new(format!(
+            "{what} would take {}, over the memory budget of {}{held}",
+            human(bytes),
+            human(limit)
+        ))
+        .with_help(
+            "use a coarser cell, a smaller domain or image, free earlier caches, or raise the \
+             budget with --memory-limit MB",
+        )
     }
 }
 
-/// Bytes held by live reservations now.
+/// Sets the current engine's budget, in bytes.
+pub fn set_limit(bytes: u64) {
+    crate::engine::with(|e| e.budget.set_limit(bytes));
+}
+
+/// The current engine's budget, in bytes.
+pub fn limit() -> u64 {
+    crate::engine::with(|e| e.budget.limit())
+}
+
+/// Bytes held by the current engine's live reservations now.
 pub fn used() -> u64 {
-    USED.load(Ordering::Relaxed)
+    crate::engine::with(|e| e.budget.used())
+}
+
+/// Half of what this process may use, worked out once: it is a fact of the machine.
+fn default_limit() -> u64 {
+    static DEFAULT: std::sync::OnceLock<u64> = std::sync::OnceLock::new();
+    *DEFAULT.get_or_init(|| available_memory().map(|m| m / 2).unwrap_or(4 << 30))
 }
 
 /// The most memory this process may use, if known.
@@ -94,11 +182,13 @@ fn rlimit(resource: libc::__rlimit_resource_t) -> Option<u64> {
 #[derive(Debug)]
 pub struct Reservation {
     bytes: u64,
+    /// The budget it came from, which may not be current when it is dropped.
+    budget: Arc<Budget>,
 }
 
 impl Drop for Reservation {
     fn drop(&mut self) {
-        USED.fetch_sub(self.bytes, Ordering::Relaxed);
+        self.budget.used.fetch_sub(self.bytes, Ordering::Relaxed);
     }
 }
 
@@ -114,58 +204,16 @@ pub fn human(bytes: f64) -> String {
     format!("{value:.1} {}", UNITS[unit])
 }
 
-fn over(what: &str, bytes: f64) -> Failure {
-    let (limit, used) = (limit() as f64, used() as f64);
-    let held = if used > 0.0 {
-        format!(
-            " ({} of it already held by this run's caches and buffers)",
-            human(used)
-        )
-    } else {
-        String::new()
-    };
-    Failure::new(format!(
-        "{what} would take {}, over the memory budget of {}{held}",
-        human(bytes),
-        human(limit)
-    ))
-    .with_help(
-        "use a coarser cell, a smaller domain or image, free earlier caches, or raise the \
-         budget with --memory-limit MB",
-    )
-}
-
-/// Takes `bytes` of the budget for storage that lives on (a cache, a buffer).
+/// Takes `bytes` of the current engine's budget for storage that lives on (a cache, a
+/// buffer).
 pub fn reserve(bytes: f64, what: &str) -> Outcome<Reservation> {
-    if !(bytes.is_finite() && bytes >= 0.0) || bytes > u64::MAX as f64 {
-        return Err(over(what, bytes));
-    }
-    let wanted = bytes as u64;
-    let limit = limit();
-    let mut current = USED.load(Ordering::Relaxed);
-    loop {
-        if current.saturating_add(wanted) > limit {
-            return Err(over(what, bytes));
-        }
-        match USED.compare_exchange_weak(
-            current,
-            current + wanted,
-            Ordering::Relaxed,
-            Ordering::Relaxed,
-        ) {
-            Ok(_) => return Ok(Reservation { bytes: wanted }),
-            Err(actual) => current = actual,
-        }
-    }
+    crate::engine::current().budget.reserve(bytes, what)
 }
 
-/// Checks that `bytes` fit in what is left of the budget, without holding them (a string, an
-/// array: values that come and go with the statements that make them).
+/// Checks that `bytes` fit in what is left of the current engine's budget, without holding
+/// them (a string, an array: values that come and go with the statements that make them).
 pub fn check(bytes: f64, what: &str) -> Outcome<()> {
-    if !(bytes.is_finite() && bytes >= 0.0) || bytes + used() as f64 > limit() as f64 {
-        return Err(over(what, bytes));
-    }
-    Ok(())
+    crate::engine::with(|e| e.budget.check(bytes, what))
 }
 
 #[cfg(test)]
@@ -174,19 +222,33 @@ mod tests {
 
     #[test]
     fn reservations_hold_their_bytes_and_refuse_what_cannot_fit() {
-        // The budget is process-wide and other tests hold parts of it, so only what holds
-        // whatever they do is asserted here; adding up and giving back across a whole run is
-        // tested by `felt run` in tests/cli.rs.
-        let held = reserve(1000.0, "a").unwrap();
+        let budget = Arc::new(Budget::default());
+        budget.set_limit(10_000);
+        let held = budget.reserve(1000.0, "a").unwrap();
         assert_eq!(held.bytes, 1000);
-        let err = reserve(limit() as f64 + 1.0, "more than the budget").unwrap_err();
+        assert_eq!(budget.used(), 1000);
+        let err = budget.reserve(9001.0, "more than the budget").unwrap_err();
         assert!(
             err.message.contains("over the memory budget"),
             "{}",
             err.message
         );
-        assert!(reserve(f64::NAN, "a NaN-sized thing").is_err());
-        assert!(reserve(-1.0, "a negative size").is_err());
-        assert!(check(1e30, "a huge string").is_err());
+        assert!(
+            err.message.contains("1000.0 B of it already held"),
+            "{}",
+            err.message
+        );
+        assert!(budget.reserve(9000.0, "the rest").is_ok());
+        assert_eq!(
+            budget.used(),
+            1000,
+            "a dropped reservation gives its bytes back"
+        );
+        drop(held);
+        assert_eq!(budget.used(), 0);
+        assert!(budget.reserve(f64::NAN, "a NaN-sized thing").is_err());
+        assert!(budget.reserve(-1.0, "a negative size").is_err());
+        assert!(budget.check(1e30, "a huge string").is_err());
+        assert!(budget.check(10_000.0, "all of it").is_ok());
     }
 }

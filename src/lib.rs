@@ -16,6 +16,7 @@ pub mod check;
 pub mod cloud;
 pub mod diagnostic;
 pub mod doc;
+pub mod engine;
 pub mod failure;
 pub mod farm;
 pub mod field;

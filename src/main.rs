@@ -50,21 +50,18 @@ fn main() -> ExitCode {
     }
 }
 
-/// Starts the worker pool now, with `threads` workers or one per core, so that a pool that
-/// cannot start is a usage error here rather than a panic at the first parallel loop.
+/// Starts the worker pool of this thread (the one sessions run on) now, with `threads`
+/// workers or one per core, so that a pool that cannot start is a usage error here rather than
+/// a silent fallback at the first parallel loop.
 fn set_threads(threads: Option<u16>) -> Result<(), ExitCode> {
-    let workers = threads.map_or(0, usize::from);
-    rayon::ThreadPoolBuilder::new()
-        .num_threads(workers)
-        .build_global()
-        .map_err(|e| {
-            match threads {
-                Some(n) => eprintln!("felt: cannot start {n} worker threads: {e}"),
-                None => eprintln!("felt: cannot start the worker threads: {e}"),
-            }
-            eprintln!("  help: try a smaller `--threads`");
-            ExitCode::from(2)
-        })
+    felt::engine::attach_pool(threads.map(usize::from)).map_err(|e| {
+        match threads {
+            Some(n) => eprintln!("felt: cannot start {n} worker threads: {e}"),
+            None => eprintln!("felt: cannot start the worker threads: {e}"),
+        }
+        eprintln!("  help: try a smaller `--threads`");
+        ExitCode::from(2)
+    })
 }
 
 fn run(cli: Cli) -> ExitCode {
@@ -81,6 +78,13 @@ fn run(cli: Cli) -> ExitCode {
             tile,
         } => {
             let mut set = set;
+            // First: any session made on this thread (even the one that reads the `frame`
+            // param below) starts the thread's worker pool, at its default size.
+            if let Err(code) = set_threads(threads) {
+                return code;
+            }
+            // What this run owns (budget, output settings, band), set up before it starts.
+            let engine = felt::engine::Engine::new();
             if let Some(range) = &frames {
                 if let Err(code) = frame_param(&file, &set) {
                     return code;
@@ -94,14 +98,11 @@ fn run(cli: Cli) -> ExitCode {
                     });
                     return ExitCode::from(felt::sequence::run(range, &args));
                 }
-                felt::output::set_frame_range();
+                engine.output.set_frame_range();
                 set.push(("frame".to_string(), range.frames[0].to_string()));
             }
             if let Some(band) = tile {
-                felt::render::band::set(band);
-            }
-            if let Err(code) = set_threads(threads) {
-                return code;
+                let _ = engine.band.set(band);
             }
             // Ctrl-C or SIGTERM in a batch run: no half-written temporary is left behind.
             let _ = ctrlc::set_handler(|| {
@@ -110,15 +111,15 @@ fn run(cli: Cli) -> ExitCode {
                 std::process::exit(130);
             });
             if let Some(dir) = output_dir
-                && let Err(e) = felt::output::set_directory(&dir)
+                && let Err(e) = engine.output.set_directory(&dir)
             {
                 eprintln!("felt: --output-dir: {e}");
                 return ExitCode::from(2);
             }
             if let Some(megabytes) = memory_limit {
-                felt::grid::domain::set_memory_limit(megabytes.saturating_mul(1 << 20));
+                engine.budget.set_limit(megabytes.saturating_mul(1 << 20));
             }
-            let mut session = match Session::new(Box::new(std::io::stdout())) {
+            let mut session = match Session::with_engine(Box::new(std::io::stdout()), engine) {
                 Ok(s) => s,
                 Err(failure) => {
                     return report(&failure.sources, &failure.diagnostics, color, 1);
@@ -140,7 +141,7 @@ fn run(cli: Cli) -> ExitCode {
                 report(&session.sources.borrow(), &late, color, 0);
             }
             if profile {
-                eprint!("{}", Session::profile_report());
+                eprint!("{}", session.profile_report());
             }
             code
         }

@@ -13,7 +13,9 @@
 //!
 //! `--output-dir DIR` (`set_directory`) sends relative output paths under DIR, so one script
 //! can run many times side by side (a study's settings, a farm's frames) without overwriting
-//! itself; `paths` turns a script's names into paths, this module only writes them.
+//! itself; `paths` turns a script's names into paths, this module only writes them. These
+//! settings, like the frame below, belong to the engine (`crate::engine`) of the run, so two
+//! sessions in one process can write to different folders.
 //!
 //! Frame patterns (`####`, `%04d`, `$F4`; see `frames`) in any path felt opens are filled with
 //! the `frame` param's value. One frame of `felt run --frames` must name its frame in every
@@ -24,16 +26,59 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Mutex, OnceLock};
 
-/// The folder relative outputs go to, when `--output-dir` set one.
-static DIRECTORY: OnceLock<PathBuf> = OnceLock::new();
+/// One engine's output settings (see `crate::engine`): `--output-dir`, the `frame` param's
+/// value and whether the run is one frame of `--frames`.
+#[derive(Debug, Default)]
+pub struct OutputSettings {
+    /// The folder relative outputs go to, when `--output-dir` set one.
+    directory: OnceLock<PathBuf>,
+    /// The `frame` param's value, once the script has declared it.
+    frame: Mutex<Option<i64>>,
+    /// Whether this run is one frame of `felt run --frames`.
+    in_range: AtomicBool,
+}
 
-/// The `frame` param's value, once the script has declared it.
-static FRAME: Mutex<Option<i64>> = Mutex::new(None);
+impl OutputSettings {
+    /// Sends relative outputs under `directory`, creating it if needed.
+    pub fn set_directory(&self, directory: &Path) -> Result<(), String> {
+        std::fs::create_dir_all(directory)
+            .map_err(|e| format!("cannot create output folder '{}': {e}", directory.display()))?;
+        if !directory.is_dir() {
+            return Err(format!("'{}' is not a folder", directory.display()));
+        }
+        self.directory
+            .set(directory.to_path_buf())
+            .map_err(|_| String::from("the output folder is already set"))
+    }
 
-/// Whether this run is one frame of `felt run --frames`.
-static IN_RANGE: AtomicBool = AtomicBool::new(false);
+    /// The folder `--output-dir` named, if it named one.
+    pub fn directory(&self) -> Option<&Path> {
+        self.directory.get().map(PathBuf::as_path)
+    }
 
-/// Temporary files being written now, so an interrupted run can remove them.
+    /// Records the `frame` param's value, which fills frame patterns in paths from now on.
+    pub fn set_frame(&self, frame: i64) {
+        *self.frame.lock().unwrap_or_else(|e| e.into_inner()) = Some(frame);
+    }
+
+    /// Marks the run as one frame of `--frames`: every output path must then name its frame.
+    pub fn set_frame_range(&self) {
+        self.in_range.store(true, Ordering::Relaxed);
+    }
+
+    /// The frame the run is on, if the script has one.
+    pub fn current_frame(&self) -> Option<i64> {
+        *self.frame.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    fn in_range(&self) -> bool {
+        self.in_range.load(Ordering::Relaxed)
+    }
+}
+
+/// Temporary files being written now, so an interrupted run can remove them. Process-wide on
+/// purpose: the Ctrl-C handler that empties it runs just before the process exits, whatever
+/// engine wrote them.
 static IN_PROGRESS: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
 
 /// Removes every temporary file being written now (from a Ctrl-C or SIGTERM handler, just
@@ -54,36 +99,29 @@ pub fn is_temporary(name: &str) -> bool {
 /// Symbolic links followed before giving up, as the kernel's own limit.
 const MAX_LINKS: usize = 40;
 
-/// Sends relative outputs of this process under `directory`, creating it if needed.
+/// Sends relative outputs of the current engine under `directory`, creating it if needed.
 pub fn set_directory(directory: &Path) -> Result<(), String> {
-    std::fs::create_dir_all(directory)
-        .map_err(|e| format!("cannot create output folder '{}': {e}", directory.display()))?;
-    if !directory.is_dir() {
-        return Err(format!("'{}' is not a folder", directory.display()));
-    }
-    DIRECTORY
-        .set(directory.to_path_buf())
-        .map_err(|_| String::from("the output folder is already set"))
+    crate::engine::with(|e| e.output.set_directory(directory))
 }
 
-/// The folder `--output-dir` named, if it named one.
-pub fn directory() -> Option<&'static Path> {
-    DIRECTORY.get().map(PathBuf::as_path)
+/// The folder `--output-dir` named for the current engine, if it named one.
+pub fn directory() -> Option<PathBuf> {
+    crate::engine::with(|e| e.output.directory().map(Path::to_path_buf))
 }
 
 /// Records the `frame` param's value, which fills frame patterns in paths from now on.
 pub fn set_frame(frame: i64) {
-    *FRAME.lock().unwrap_or_else(|e| e.into_inner()) = Some(frame);
+    crate::engine::with(|e| e.output.set_frame(frame));
 }
 
 /// Marks this run as one frame of `--frames`: every output path must then name its frame.
 pub fn set_frame_range() {
-    IN_RANGE.store(true, Ordering::Relaxed);
+    crate::engine::with(|e| e.output.set_frame_range());
 }
 
 /// The frame this run is on, if the script has one.
 pub fn current_frame() -> Option<i64> {
-    *FRAME.lock().unwrap_or_else(|e| e.into_inner())
+    crate::engine::with(|e| e.output.current_frame())
 }
 
 /// `text` with its frame patterns filled, when the script has a frame.
@@ -103,7 +141,7 @@ pub fn check_frame(text: &str) -> Result<(), String> {
             "its name has a frame pattern but the script declares no `param int frame`",
         ));
     }
-    if !pattern && IN_RANGE.load(Ordering::Relaxed) {
+    if !pattern && crate::engine::with(|e| e.output.in_range()) {
         return Err(String::from(
             "every frame of --frames would write this same file; put the frame in its name \
              (`name.####.exr`, `name.%04d.exr` or `name.$F4.exr`)",
@@ -116,7 +154,7 @@ pub fn check_frame(text: &str) -> Result<(), String> {
 /// frame patterns filled, and under the output folder when there is one.
 pub fn target(path: &Path) -> PathBuf {
     let path = PathBuf::from(framed(&path.to_string_lossy()));
-    match DIRECTORY.get() {
+    match directory() {
         Some(directory) if path.is_relative() => directory.join(path),
         _ => path,
     }

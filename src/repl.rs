@@ -138,7 +138,8 @@ pub fn run() -> ExitCode {
         let _ = editor.load_history(path);
     }
     // Ctrl-C while an evaluation runs (the terminal is not in raw mode then).
-    let _ = ctrlc::set_handler(crate::interrupt::request);
+    let engine = session.engine().clone();
+    let _ = ctrlc::set_handler(move || engine.interrupt());
     println!(
         "felt {} — :help for help, :quit to leave",
         env!("CARGO_PKG_VERSION")
@@ -153,7 +154,7 @@ pub fn run() -> ExitCode {
                 if let Some(path) = &history {
                     let _ = editor.save_history(path);
                 }
-                crate::interrupt::clear();
+                session.engine().clear_interrupt();
                 if !handle(&mut session, &line, color) {
                     break;
                 }

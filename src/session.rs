@@ -2,9 +2,14 @@
 //! checker's environment and the interpreter, loads the standard library, follows imports
 //! (relative to the importing file, each file once, cycles reported with the chain), checks
 //! everything before running anything, and hands diagnostics back as values.
+//!
+//! A session owns its engine (`crate::engine`): memory budget, profile, interrupt flag and
+//! output settings. It enters the engine while it runs code, so everything that code does —
+//! on this thread and on the worker threads it starts — is accounted to this session alone.
 
 use crate::check::{self, CheckEnv};
 use crate::diagnostic::{Diagnostic, Stage};
+use crate::engine::Engine;
 use crate::interp::value::Value;
 use crate::interp::{Interpreter, suggest};
 use crate::syntax;
@@ -15,6 +20,7 @@ use std::collections::HashSet;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::rc::Rc;
+use std::sync::Arc;
 
 /// The standard library, compiled into the binary so felt runs from anywhere.
 pub const STDLIB: &[(&str, &str)] = &[
@@ -49,16 +55,30 @@ pub struct Session {
     /// An interactive session: relative paths stay relative to the current directory, also
     /// in files run with `:load`.
     pub at_prompt: bool,
+    /// What this session's runs own: budget, profile, interrupt flag, output settings.
+    engine: Arc<Engine>,
 }
 
 impl Session {
-    /// A session with the standard library loaded; `print` writes to `out`.
+    /// A session with the standard library loaded and an engine of its own with the default
+    /// memory budget; `print` writes to `out`.
     pub fn new(out: Box<dyn Write>) -> Result<Session, StartupFailure> {
+        Session::with_engine(out, Engine::new())
+    }
+
+    /// A session that runs on `engine` (its memory budget, output settings ...), with the
+    /// standard library loaded; `print` writes to `out`.
+    pub fn with_engine(
+        out: Box<dyn Write>,
+        engine: Arc<Engine>,
+    ) -> Result<Session, StartupFailure> {
         let sources = Rc::new(RefCell::new(SourceMap::default()));
+        let _entered = engine.enter();
         let mut session = Session {
+            engine: engine.clone(),
             interp: Interpreter::new(sources.clone(), out),
             sources,
-            env: CheckEnv::default(),
+            env: CheckEnv::new(crate::interp::registry::registry().signatures()),
             loaded: HashSet::new(),
             repl_inputs: 0,
             at_prompt: false,
@@ -88,6 +108,11 @@ impl Session {
             session.interp.define_functions(&unit.program);
         }
         Ok(session)
+    }
+
+    /// The engine this session runs on; a Ctrl-C handler keeps a clone to interrupt it.
+    pub fn engine(&self) -> &Arc<Engine> {
+        &self.engine
     }
 
     fn startup_failure(self, diagnostics: Vec<Diagnostic>) -> StartupFailure {
@@ -234,6 +259,7 @@ impl Session {
         units: &[Unit],
         on_value: &mut dyn FnMut(&mut Interpreter, Value),
     ) -> Result<(), Diagnostic> {
+        let _entered = self.engine.enter();
         for unit in units {
             self.interp.run_program(&unit.program, on_value)?;
         }
@@ -313,6 +339,7 @@ impl Session {
     /// After a run: the warnings found while running, including caches that ended up holding
     /// non-finite values.
     pub fn finish(&mut self) -> Vec<Diagnostic> {
+        let _entered = self.engine.enter();
         for (cache, span) in std::mem::take(&mut self.interp.written_caches) {
             if let Some(cache) = cache.upgrade() {
                 crate::interp::builtins::grids::report_nonfinite(&mut self.interp, &cache, span);
@@ -323,8 +350,8 @@ impl Session {
 
     /// The `--profile` table: every grid-producing operation that ran (kind, source line,
     /// bricks filled of total, seconds, bytes), then the count of those never evaluated.
-    pub fn profile_report() -> String {
-        let entries = crate::grid::profile::report();
+    pub fn profile_report(&self) -> String {
+        let entries = self.engine.profile.report();
         let (ran, never): (Vec<_>, Vec<_>) = entries
             .into_iter()
             .partition(|e| e.bricks_filled + e.bricks_skipped > 0 || e.seconds > 0.0);

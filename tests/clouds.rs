@@ -173,14 +173,13 @@ render("sky.png", density = rho, camera = cam, lights = {sun}, kappa = 5.0, widt
 
 #[test]
 fn rendering_a_frame_steps_to_it_but_smooths_and_lights_only_it() {
-    felt::grid::profile::clear();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("onlyframe.felt");
     std::fs::write(&path, SKY).unwrap();
     std::env::set_current_dir(dir.path()).unwrap();
     let outcome = common::run_script(&path, &[("frame", "12")]);
     assert!(outcome.ok, "{}", outcome.rendered);
-    let rows = felt::grid::profile::report();
+    let rows = outcome.profile;
     let row = |kind: &str| {
         rows.iter()
             .filter(|e| e.kind == kind)

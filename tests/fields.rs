@@ -89,7 +89,6 @@ fn caches_reproduce_linear_fields_in_both_interpolations() {
 
 #[test]
 fn a_probe_fills_only_the_bricks_it_needs() {
-    felt::grid::profile::clear();
     let outcome = common::run_source(
         "lazy.felt",
         r#"
@@ -102,7 +101,8 @@ fn a_probe_fills_only_the_bricks_it_needs() {
         "#,
     );
     assert!(outcome.ok, "{}", outcome.rendered);
-    let rows: Vec<_> = felt::grid::profile::report()
+    let rows: Vec<_> = outcome
+        .profile
         .into_iter()
         .filter(|e| e.label.contains("lazy.felt"))
         .collect();

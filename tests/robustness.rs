@@ -161,7 +161,7 @@ fn mutated_scripts_give_diagnostics_not_panics() {
     // Mutated scripts may write outputs (renders, caches): keep them out of the source tree,
     // and keep grids small so a mutated resolution cannot exhaust memory.
     std::env::set_current_dir(scratch.path()).unwrap();
-    felt::grid::domain::set_memory_limit(64 << 20);
+    let engine = felt::engine::Engine::with_memory_limit(64 << 20);
     let stop = Arc::new(AtomicBool::new(false));
     let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
     let mut panics = Vec::new();
@@ -177,6 +177,7 @@ fn mutated_scripts_give_diagnostics_not_panics() {
         let started = Instant::now();
         let watchdog = {
             let stop = stop.clone();
+            let engine = engine.clone();
             std::thread::spawn(move || {
                 let deadline = Instant::now() + Duration::from_secs(2);
                 while Instant::now() < deadline {
@@ -185,7 +186,7 @@ fn mutated_scripts_give_diagnostics_not_panics() {
                     }
                     std::thread::sleep(Duration::from_millis(5));
                 }
-                felt::interrupt::request();
+                engine.interrupt();
             })
         };
         // Example scenes declare their sizes as params: shrink them so a mutant that runs
@@ -199,11 +200,13 @@ fn mutated_scripts_give_diagnostics_not_panics() {
         .into_iter()
         .filter(|(name, _)| mutant.contains(&format!("param int {name} ")))
         .collect();
-        let result = catch_unwind(AssertUnwindSafe(|| common::run_script(&target, &small)));
+        let result = catch_unwind(AssertUnwindSafe(|| {
+            common::run_script_on(engine.clone(), &target, &small)
+        }));
         stop.store(true, Ordering::Relaxed);
         watchdog.join().unwrap();
         stop.store(false, Ordering::Relaxed);
-        felt::interrupt::clear();
+        engine.clear_interrupt();
         let elapsed = started.elapsed();
         slowest = slowest.max(elapsed);
         match result {

@@ -3,10 +3,11 @@
 //! `Error`, which fits anywhere, so one mistake is reported once.
 
 use super::Checker;
+use super::resolve::{self, Culprit, Resolution};
+use super::signature::Param;
+use super::suggest;
 use super::types::{self, Type, binary_result, unary_result, unify};
 use crate::diagnostic::{Diagnostic, Stage};
-use crate::interp::registry::{self, Culprit, Resolution};
-use crate::interp::suggest;
 use crate::syntax::ast::*;
 use crate::syntax::span::Span;
 
@@ -22,7 +23,7 @@ impl Checker<'_> {
                 None => {
                     let help = self.name_hint(&name.name).or_else(|| {
                         (self.env.funcs.contains_key(&name.name)
-                            || registry::registry().get(&name.name).is_some())
+                            || self.env.builtins.get(&name.name).is_some())
                         .then(|| {
                             format!(
                                 "`{}` is a function; call it with `{}(...)`",
@@ -250,7 +251,7 @@ impl Checker<'_> {
             }
             return sig.ret;
         }
-        if registry::registry().get(&callee.name).is_some() {
+        if self.env.builtins.get(&callee.name).is_some() {
             return self.builtin_call(&callee.name, span, args);
         }
         for a in args {
@@ -258,7 +259,7 @@ impl Checker<'_> {
         }
         let help = if self.take_hint() {
             let mut names: Vec<String> = self.env.funcs.keys().cloned().collect();
-            names.extend(registry::registry().names().map(String::from));
+            names.extend(self.env.builtins.names().map(String::from));
             suggest::closest(&callee.name, names.iter().map(|s| s.as_str()))
                 .map(|s| format!("did you mean `{s}`?"))
         } else {
@@ -280,9 +281,7 @@ impl Checker<'_> {
     }
 
     pub(super) fn builtin_call(&mut self, name: &str, span: Span, args: &[Arg]) -> Type {
-        let builtin = registry::registry()
-            .get(name)
-            .expect("checked by the caller");
+        let builtin = self.env.builtins.get(name).expect("checked by the caller");
         let types: Vec<Type> = args.iter().map(|a| self.expr(&a.value)).collect();
         if types.iter().any(|t| t.is_error()) {
             return builtin
@@ -295,7 +294,7 @@ impl Checker<'_> {
             .iter()
             .map(|a| a.name.as_ref().map(|n| n.name.clone()))
             .collect();
-        match registry::resolve(builtin, &types, &names) {
+        match resolve::resolve(builtin, &types, &names) {
             Resolution::Match { form, slots, .. } => {
                 let sig = &builtin.signatures[form];
                 for (slot, param) in slots.iter().zip(&sig.params) {
@@ -320,7 +319,7 @@ impl Checker<'_> {
 
     /// Checks the string literals given for a parameter with a fixed set of values (a string,
     /// or an array of them); other expressions are known only at run time, which checks them.
-    fn literal_choices(&mut self, param: &registry::Param, value: &Expr) {
+    fn literal_choices(&mut self, param: &Param, value: &Expr) {
         let literals: Vec<(&str, Span)> = match &value.kind {
             ExprKind::Str(s) => vec![(s.as_str(), value.span)],
             ExprKind::Array(items) => items
@@ -333,7 +332,7 @@ impl Checker<'_> {
             _ => Vec::new(),
         };
         for (text, at) in literals {
-            if let Err(failure) = registry::check_choice(param, text) {
+            if let Err(failure) = resolve::check_choice(param, text) {
                 let d = self.error(Stage::Type, at, failure.message);
                 d.help = failure.help;
             }

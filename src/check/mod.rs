@@ -7,20 +7,25 @@
 //! Scoping follows C: functions are visible everywhere (all signatures are collected first);
 //! a function body sees its parameters, its locals, and the global variables declared before
 //! the function in the source.
+//!
+//! The checker owns the builtins' signatures (`signature`) and the rules that match a call to
+//! one of them (`resolve`), but not the table of builtins: its environment is handed that
+//! table by the session, from the interpreter's registry. So the interpreter depends on the
+//! checker (types, signatures, resolution) and the checker never on the interpreter.
 
-#[cfg(test)]
-mod agreement;
 mod expr;
+pub mod resolve;
+pub mod signature;
 mod stmt;
+pub mod suggest;
 
 use stmt::block_returns;
 pub mod types;
 
 use crate::diagnostic::{Diagnostic, MAX_RENDERED, Stage};
-use crate::interp::registry;
-use crate::interp::suggest;
 use crate::syntax::ast::*;
 use crate::syntax::span::Span;
+use signature::Signatures;
 use std::collections::HashMap;
 use types::Type;
 
@@ -43,12 +48,27 @@ pub struct VarInfo {
 
 /// What persists between checks: global variables and functions. The REPL keeps one across
 /// inputs; a batch run makes one per run.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct CheckEnv {
     pub globals: HashMap<String, VarInfo>,
     pub funcs: HashMap<String, FuncSig>,
     /// At the REPL a declaration may replace an earlier global of the same name.
     pub allow_redeclare: bool,
+    /// The builtins' signatures. Handed in by whoever runs the checker (the session, from the
+    /// interpreter's registry), so the checker does not depend on the interpreter.
+    pub builtins: &'static Signatures,
+}
+
+impl CheckEnv {
+    /// An environment with no globals or functions yet, checking calls against `builtins`.
+    pub fn new(builtins: &'static Signatures) -> CheckEnv {
+        CheckEnv {
+            globals: HashMap::new(),
+            funcs: HashMap::new(),
+            allow_redeclare: false,
+            builtins,
+        }
+    }
 }
 
 /// Registers the functions of a program in the environment. Returns the diagnostics for
@@ -92,7 +112,7 @@ pub fn collect_functions(env: &mut CheckEnv, program: &Program, stdlib: bool) ->
                 );
                 continue;
             }
-        } else if registry::registry().get(&f.name.name).is_some() && !stdlib {
+        } else if env.builtins.get(&f.name.name).is_some() && !stdlib {
             diags.push(
                 Diagnostic::warning(
                     Stage::Name,
@@ -288,6 +308,6 @@ impl Checker<'_> {
     }
 }
 
-fn constructor_exists(base: BaseType) -> bool {
-    registry::registry().get(base.keyword()).is_some()
+fn constructor_exists(builtins: &Signatures, base: BaseType) -> bool {
+    builtins.get(base.keyword()).is_some()
 }

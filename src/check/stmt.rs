@@ -4,7 +4,6 @@
 use super::types::{Type, binary_result};
 use super::{Checker, constructor_exists};
 use crate::diagnostic::Stage;
-use crate::interp::registry;
 use crate::syntax::ast::*;
 use crate::syntax::span::Span;
 use std::collections::HashMap;
@@ -164,6 +163,7 @@ impl Checker<'_> {
         match init {
             DeclInit::Default => {
                 if !declared.has_default() || declared == Type::Particles {
+                    let builtins = self.env.builtins;
                     let d = self.error(
                         Stage::Type,
                         span,
@@ -172,10 +172,11 @@ impl Checker<'_> {
                             name.name
                         ),
                     );
-                    if Type::from_base(ty.base) == declared && constructor_exists(ty.base) {
+                    if Type::from_base(ty.base) == declared && constructor_exists(builtins, ty.base)
+                    {
                         d.help = Some(format!(
                             "use the constructor form: {}",
-                            registry::registry()
+                            builtins
                                 .get(ty.base.keyword())
                                 .map(|b| b.forms().join(" or "))
                                 .unwrap_or_default()
@@ -193,7 +194,7 @@ impl Checker<'_> {
                 );
             }
             DeclInit::Ctor(args) => {
-                if ty.array_depth > 0 || !constructor_exists(ty.base) {
+                if ty.array_depth > 0 || !constructor_exists(self.env.builtins, ty.base) {
                     self.error(
                         Stage::Type,
                         span,

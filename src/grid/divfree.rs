@@ -130,16 +130,16 @@ impl DivergenceFree {
         }
         let result = if rayon::current_thread_index().is_some() {
             // Inside a parallel evaluation: solve on a pool of our own, from a thread that is
-            // no worker of the outer pool, so waiting never steals outer tasks.
-            let threads = rayon::current_num_threads();
+            // no worker of the outer pool, so waiting never steals outer tasks. (A session's
+            // own thread is worker 0 of its pool, so this is the path a solve takes.) The pool
+            // is made here, where the run's engine is current, so its workers use it.
+            let pool = crate::engine::worker_pool(rayon::current_num_threads());
             std::thread::scope(|scope| {
                 scope
-                    .spawn(
-                        || match rayon::ThreadPoolBuilder::new().num_threads(threads).build() {
-                            Ok(pool) => pool.install(|| self.run()),
-                            Err(_) => self.run(),
-                        },
-                    )
+                    .spawn(|| match pool {
+                        Ok(pool) => pool.install(|| self.run()),
+                        Err(_) => self.run(),
+                    })
                     .join()
                     .unwrap_or_else(|_| Err(Failure::new("the fftdivfree solve failed")))
             })

@@ -7,7 +7,8 @@
 //! The one key decision: counters are keyed by `(kind, label)`, so the thousand states that
 //! one `cachewrite` line produces over a simulation share one row and the registry stays the
 //! same size however long the run; and the registry holds only counters, never the grids, so
-//! it keeps nothing alive.
+//! it keeps nothing alive. Each engine (`crate::engine`) has its own rows, so a session's
+//! profile lists only its own grids; the free functions here use the current engine.
 
 use std::fmt::Write;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -112,42 +113,69 @@ struct Registration {
     stats: Arc<GridStats>,
 }
 
-static REGISTRY: Mutex<Vec<Registration>> = Mutex::new(Vec::new());
-
-fn registry() -> MutexGuard<'static, Vec<Registration>> {
-    // Counters stay meaningful even if a thread panicked while holding the lock.
-    REGISTRY
-        .lock()
-        .unwrap_or_else(|poisoned| poisoned.into_inner())
+/// One engine's profile rows (see `crate::engine`).
+#[derive(Default)]
+pub struct Profile {
+    registry: Mutex<Vec<Registration>>,
 }
 
-/// The counters for grids of `kind` made at `label`; the same pair always gets the same
-/// counters.
-pub fn register(kind: &str, label: &str) -> Arc<GridStats> {
-    let mut registry = registry();
-    if let Some(found) = registry.iter().find(|r| r.kind == kind && r.label == label) {
-        return found.stats.clone();
+impl std::fmt::Debug for Profile {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Profile({} rows)", self.rows().len())
     }
-    let stats = Arc::new(GridStats::default());
-    registry.push(Registration {
-        kind: kind.to_string(),
-        label: label.to_string(),
-        stats: stats.clone(),
-    });
-    stats
 }
 
-/// Every registered row, in the order they were first registered.
+impl Profile {
+    fn rows(&self) -> MutexGuard<'_, Vec<Registration>> {
+        // Counters stay meaningful even if a thread panicked while holding the lock.
+        self.registry
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner())
+    }
+
+    /// The counters for grids of `kind` made at `label`; the same pair always gets the same
+    /// counters.
+    pub fn register(&self, kind: &str, label: &str) -> Arc<GridStats> {
+        let mut registry = self.rows();
+        if let Some(found) = registry.iter().find(|r| r.kind == kind && r.label == label) {
+            return found.stats.clone();
+        }
+        let stats = Arc::new(GridStats::default());
+        registry.push(Registration {
+            kind: kind.to_string(),
+            label: label.to_string(),
+            stats: stats.clone(),
+        });
+        stats
+    }
+
+    /// Every registered row, in the order they were first registered.
+    pub fn report(&self) -> Vec<ProfileEntry> {
+        self.rows()
+            .iter()
+            .map(|r| r.stats.snapshot(&r.kind, &r.label))
+            .collect()
+    }
+
+    /// Forgets every row (for a REPL `:reset`).
+    pub fn clear(&self) {
+        self.rows().clear();
+    }
+}
+
+/// `Profile::register` on the current engine's profile.
+pub fn register(kind: &str, label: &str) -> Arc<GridStats> {
+    crate::engine::with(|e| e.profile.register(kind, label))
+}
+
+/// `Profile::report` of the current engine's profile.
 pub fn report() -> Vec<ProfileEntry> {
-    registry()
-        .iter()
-        .map(|r| r.stats.snapshot(&r.kind, &r.label))
-        .collect()
+    crate::engine::with(|e| e.profile.report())
 }
 
-/// Forgets every row (for a REPL `:reset` or between runs in one process).
+/// `Profile::clear` of the current engine's profile.
 pub fn clear() {
-    registry().clear();
+    crate::engine::with(|e| e.profile.clear());
 }
 
 /// A plain-text table of `entries`, one line each, aligned, with a header.

@@ -249,15 +249,10 @@ impl Interpreter {
             .collect();
         let rest = rest.iter().filter_map(|i| taken[*i].take()).collect();
         let previous = std::mem::replace(&mut self.call_span, span);
-        let result = (builtin.run)(
-            self,
-            Args {
-                values: converted,
-                rest,
-                form,
-                signature: sig,
-            },
-        );
+        let run = registry::registry()
+            .implementation(name)
+            .expect("every registered builtin has an implementation");
+        let result = run(self, Args::new(builtin, form, converted, rest));
         self.call_span = previous;
         let value = result.map_err(|f| self.error(span, f))?;
         if matches!(value, Value::Field(_)) {

@@ -16,8 +16,12 @@ mod exec;
 pub use exec::{override_value, parse_override};
 pub mod ops;
 pub mod registry;
-mod resolve;
-pub mod suggest;
+// The did-you-mean helper lives with the checker, its main user; runtime messages share it.
+pub use crate::check::suggest;
+#[cfg(test)]
+mod agreement;
+#[cfg(test)]
+mod resolve_tests;
 pub mod value;
 
 use crate::check::types::Type;

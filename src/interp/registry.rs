@@ -3,251 +3,258 @@
 //! cannot be documented one way and checked another. Later capabilities add builtins by
 //! registering them here, nothing else.
 //!
-//! Signatures are written the way the docs show them, `sin(scalarfield x) -> scalarfield`,
-//! and parsed once when the registry is built. A parameter written `float step?` is optional
-//! (the implementation sees `None` when it is not given); every parameter may also be passed
-//! by keyword. A builtin may have several signatures: the first whose parameters accept the
-//! arguments (after the implicit conversions `int → float`, plain → constant field) wins, so
-//! plain forms are listed before field forms.
+//! The key decision: the signatures belong to the checker (`crate::check::signature`), which
+//! is handed them through its environment; this registry adds the implementations beside
+//! them, so the interpreter depends on the checker and never the other way round.
 
 use super::Interpreter;
 use super::value::Value;
-use crate::check::types::Type;
 use crate::failure::Failure;
-use std::collections::BTreeMap;
+use std::collections::HashMap;
 use std::fmt;
+use std::ops::RangeInclusive;
 use std::sync::OnceLock;
 
-pub use super::resolve::{Culprit, Resolution, check_choice, resolve};
-
-/// What a parameter accepts.
-#[derive(Clone, Debug, PartialEq)]
-pub enum ParamType {
-    Exact(Type),
-    /// Anything printable (`print`, `str`).
-    Any,
-    /// An array of anything (`size`).
-    AnyArray,
-}
-
-impl ParamType {
-    pub fn accepts(&self, arg: &Type) -> bool {
-        match self {
-            ParamType::Exact(t) => arg.converts_to(t),
-            ParamType::Any => *arg != Type::Void,
-            ParamType::AnyArray => matches!(arg, Type::Array(_) | Type::EmptyArray | Type::Error),
-        }
-    }
-}
-
-impl fmt::Display for ParamType {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            ParamType::Exact(t) => write!(f, "{t}"),
-            ParamType::Any => f.write_str("any"),
-            ParamType::AnyArray => f.write_str("any[]"),
-        }
-    }
-}
-
-#[derive(Clone, Debug)]
-pub struct Param {
-    pub name: String,
-    pub ty: ParamType,
-    pub optional: bool,
-    /// The only values a string (or each string of an array) may take, when there is a
-    /// fixed set: checked on literals by `felt check` and on every value at run time.
-    pub choices: Option<Choices>,
-    /// Names users of other tools give this parameter (`samples` for `spp`), offered as
-    /// the fix when one is used as a keyword.
-    pub aliases: &'static [&'static str],
-}
-
-/// A parameter's fixed set of string values, and what one of them is called in a message
-/// ("shadows mode", "AOV").
-#[derive(Clone, Debug)]
-pub struct Choices {
-    pub noun: &'static str,
-    pub values: &'static [&'static str],
-}
-
-#[derive(Clone, Debug)]
-pub struct Signature {
-    pub params: Vec<Param>,
-    /// `...` at the end: any number of further arguments of this type.
-    pub variadic: Option<ParamType>,
-    pub ret: Type,
-}
-
-impl Signature {
-    pub fn required(&self) -> usize {
-        self.params.iter().filter(|p| !p.optional).count()
-    }
-
-    pub fn param_index(&self, name: &str) -> Option<usize> {
-        self.params.iter().position(|p| p.name == name)
-    }
-}
+pub use crate::check::resolve::{Culprit, Resolution, check_choice, resolve};
+pub use crate::check::signature::{
+    Builtin, Choices, Param, ParamType, Signature, Signatures, format_signature,
+};
 
 /// The arguments of one builtin call, already converted to the matched signature's types and
 /// put in parameter order (`None` for an optional parameter not given).
 ///
-/// Builtins read them by parameter name (`a.float("step")`), so the signature string is the
-/// one place a parameter's position is written; a positional index still works for the
-/// builtins whose forms differ only in arity.
+/// Builtins read them by parameter name only (`a.float("step")`), so the signature string is
+/// the one place a parameter's position is written; there is no positional access to creep
+/// back. Range checks live here too (`positive_float`, `float_in`, ...), so every builtin
+/// words "out of range" the same way.
 pub struct Args {
-    pub values: Vec<Option<Value>>,
+    values: Vec<Option<Value>>,
+    /// The variadic arguments after the named ones (`print`, `format`).
     pub rest: Vec<Value>,
     /// Index of the signature that matched, for builtins whose forms differ in behaviour.
     pub form: usize,
     /// The matched signature, for reading arguments by name.
     pub signature: &'static Signature,
-}
-
-/// How a builtin names one of its arguments: by position or by parameter name.
-pub trait ArgKey: Copy + fmt::Display {
-    fn index(self, signature: &Signature) -> Option<usize>;
-}
-
-impl ArgKey for usize {
-    fn index(self, _: &Signature) -> Option<usize> {
-        Some(self)
-    }
-}
-
-impl ArgKey for &str {
-    fn index(self, signature: &Signature) -> Option<usize> {
-        signature.param_index(self)
-    }
+    /// The builtin called, for messages and for telling a misspelt name from one that only
+    /// another form has.
+    builtin: &'static Builtin,
 }
 
 impl Args {
-    fn slot<K: ArgKey>(&self, key: K) -> Option<usize> {
-        let i = key.index(self.signature);
-        // A name that is not a parameter of the matched form is a mistake in felt's source,
-        // caught by the builtin's tests; at run time it reads as "not given".
+    /// The arguments of a call to `builtin` that matched its form `form`.
+    pub fn new(
+        builtin: &'static Builtin,
+        form: usize,
+        values: Vec<Option<Value>>,
+        rest: Vec<Value>,
+    ) -> Args {
+        Args {
+            values,
+            rest,
+            form,
+            signature: &builtin.signatures[form],
+            builtin,
+        }
+    }
+
+    fn slot(&self, key: &str) -> Option<usize> {
+        let i = self.signature.param_index(key);
+        // A name that no form has is a mistake in felt's source, caught by the builtin's
+        // tests; at run time it reads as "not given". A name only other forms have is simply
+        // not given in this one.
         debug_assert!(
-            i.is_some(),
-            "builtin reads `{key}`, which its signature lacks"
+            i.is_some()
+                || self
+                    .builtin
+                    .signatures
+                    .iter()
+                    .any(|s| s.param_index(key).is_some()),
+            "builtin `{}` reads `{key}`, which none of its signatures has",
+            self.builtin.name
         );
         i
     }
 
-    pub fn get<K: ArgKey>(&self, key: K) -> Result<&Value, Failure> {
+    pub fn get(&self, key: &str) -> Result<&Value, Failure> {
         self.opt(key)
             .ok_or_else(|| Failure::new(format!("missing argument `{key}`")))
     }
 
-    pub fn opt<K: ArgKey>(&self, key: K) -> Option<&Value> {
+    pub fn opt(&self, key: &str) -> Option<&Value> {
         self.slot(key)
             .and_then(|i| self.values.get(i))
             .and_then(|v| v.as_ref())
     }
 
+    /// The argument of the first of `keys` that the matched form has: one parameter that the
+    /// forms name differently (`grad(scalarfield f)`, `grad(vectorfield v)`).
+    pub fn one_of(&self, keys: &[&str]) -> Result<&Value, Failure> {
+        let key = keys
+            .iter()
+            .find(|k| self.signature.param_index(k).is_some())
+            .or(keys.first())
+            .copied()
+            .unwrap_or_default();
+        self.get(key)
+    }
+
     /// Whether the caller gave this argument.
-    pub fn given<K: ArgKey>(&self, key: K) -> bool {
+    pub fn given(&self, key: &str) -> bool {
         self.opt(key).is_some()
     }
 
-    pub fn float<K: ArgKey>(&self, key: K) -> Result<f64, Failure> {
+    pub fn float(&self, key: &str) -> Result<f64, Failure> {
         self.get(key)?.as_float()
     }
 
-    pub fn int<K: ArgKey>(&self, key: K) -> Result<i64, Failure> {
+    pub fn int(&self, key: &str) -> Result<i64, Failure> {
         self.get(key)?.as_int()
     }
 
-    pub fn opt_float<K: ArgKey>(&self, key: K) -> Result<Option<f64>, Failure> {
+    pub fn opt_float(&self, key: &str) -> Result<Option<f64>, Failure> {
         self.opt(key).map(|v| v.as_float()).transpose()
     }
 
-    pub fn opt_int<K: ArgKey>(&self, key: K) -> Result<Option<i64>, Failure> {
+    pub fn opt_int(&self, key: &str) -> Result<Option<i64>, Failure> {
         self.opt(key).map(|v| v.as_int()).transpose()
     }
 
-    pub fn string<K: ArgKey>(&self, key: K) -> Result<&str, Failure> {
+    pub fn string(&self, key: &str) -> Result<&str, Failure> {
         self.get(key)?.as_str()
+    }
+
+    /// A float that must be finite and above zero.
+    pub fn positive_float(&self, key: &str) -> Result<f64, Failure> {
+        let v = self.float(key)?;
+        self.check_positive(key, v)
+    }
+
+    /// `positive_float`, for an optional parameter.
+    pub fn opt_positive_float(&self, key: &str) -> Result<Option<f64>, Failure> {
+        match self.opt_float(key)? {
+            Some(v) => self.check_positive(key, v).map(Some),
+            None => Ok(None),
+        }
+    }
+
+    /// A whole number above zero, as a count.
+    pub fn positive_int(&self, key: &str) -> Result<usize, Failure> {
+        let n = self.int(key)?;
+        self.check_count(key, n)
+    }
+
+    /// `positive_int`, for an optional parameter.
+    pub fn opt_positive_int(&self, key: &str) -> Result<Option<usize>, Failure> {
+        match self.opt_int(key)? {
+            Some(n) => self.check_count(key, n).map(Some),
+            None => Ok(None),
+        }
+    }
+
+    /// A float in `range` (ends included).
+    pub fn float_in(&self, key: &str, range: RangeInclusive<f64>) -> Result<f64, Failure> {
+        let v = self.float(key)?;
+        self.check_in(key, v, range)
+    }
+
+    /// `float_in`, for an optional parameter.
+    pub fn opt_float_in(
+        &self,
+        key: &str,
+        range: RangeInclusive<f64>,
+    ) -> Result<Option<f64>, Failure> {
+        match self.opt_float(key)? {
+            Some(v) => self.check_in(key, v, range).map(Some),
+            None => Ok(None),
+        }
+    }
+
+    /// A whole number in `range` (ends included).
+    pub fn int_in(&self, key: &str, range: RangeInclusive<i64>) -> Result<i64, Failure> {
+        let n = self.int(key)?;
+        if range.contains(&n) {
+            Ok(n)
+        } else {
+            Err(self.out_of(key, n, range.start(), range.end()))
+        }
+    }
+
+    /// A whole number in `range` (ends included), for an optional parameter.
+    pub fn opt_int_in(
+        &self,
+        key: &str,
+        range: RangeInclusive<i64>,
+    ) -> Result<Option<i64>, Failure> {
+        match self.opt_int(key)? {
+            Some(n) if !range.contains(&n) => Err(self.out_of(key, n, range.start(), range.end())),
+            n => Ok(n),
+        }
+    }
+
+    /// How a message names parameter `key`: "sphere radius".
+    fn what(&self, key: &str) -> String {
+        format!("{} {key}", self.builtin.name)
+    }
+
+    fn check_positive(&self, key: &str, v: f64) -> Result<f64, Failure> {
+        if v.is_finite() && v > 0.0 {
+            Ok(v)
+        } else {
+            Err(Failure::new(format!(
+                "{} must be positive, found {v}",
+                self.what(key)
+            )))
+        }
+    }
+
+    fn check_count(&self, key: &str, n: i64) -> Result<usize, Failure> {
+        usize::try_from(n).ok().filter(|&n| n > 0).ok_or_else(|| {
+            Failure::new(format!(
+                "{} must be a positive whole number, found {n}",
+                self.what(key)
+            ))
+        })
+    }
+
+    fn check_in(&self, key: &str, v: f64, range: RangeInclusive<f64>) -> Result<f64, Failure> {
+        if range.contains(&v) {
+            Ok(v)
+        } else {
+            Err(self.out_of(key, v, range.start(), range.end()))
+        }
+    }
+
+    fn out_of(
+        &self,
+        key: &str,
+        v: impl fmt::Display,
+        lo: impl fmt::Display,
+        hi: impl fmt::Display,
+    ) -> Failure {
+        Failure::new(format!(
+            "{} must be between {lo} and {hi}, found {v}",
+            self.what(key)
+        ))
     }
 }
 
 pub type BuiltinFn = fn(&mut Interpreter, Args) -> Result<Value, Failure>;
 
-pub struct Builtin {
-    pub name: &'static str,
-    pub doc: &'static str,
-    pub signatures: Vec<Signature>,
-    pub run: BuiltinFn,
-    /// The group it belongs to in `felt doc` ("math", "fields", "render", ...).
-    pub group: &'static str,
-}
-
-impl Builtin {
-    /// The signatures as the docs show them.
-    pub fn forms(&self) -> Vec<String> {
-        self.signatures
-            .iter()
-            .map(|s| format_signature(self.name, s))
-            .collect()
-    }
-}
-
-pub fn format_signature(name: &str, sig: &Signature) -> String {
-    let mut params: Vec<String> = sig
-        .params
-        .iter()
-        .map(|p| format!("{} {}{}", p.ty, p.name, if p.optional { "?" } else { "" }))
-        .collect();
-    if let Some(v) = &sig.variadic {
-        params.push(format!("{v}..."));
-    }
-    if sig.ret == Type::Void {
-        format!("{name}({})", params.join(", "))
-    } else {
-        format!("{name}({}) -> {}", params.join(", "), sig.ret)
-    }
-}
-
+/// The signature table and, for each builtin in it, its implementation.
 #[derive(Default)]
 pub struct Registry {
-    builtins: BTreeMap<&'static str, Builtin>,
+    signatures: Signatures,
+    implementations: HashMap<&'static str, BuiltinFn>,
 }
 
 impl Registry {
-    /// Adds a builtin. `forms` are signatures in doc syntax, e.g.
-    /// `"clamp(float x, float lo, float hi) -> float"`. Panics on a malformed form: the forms
-    /// are part of felt's source, and a test builds the registry.
+    /// Adds a builtin: its forms and doc line (see `Signatures::add`) and its implementation.
     pub fn add(&mut self, group: &'static str, forms: &[&str], doc: &'static str, run: BuiltinFn) {
-        let mut name = None;
-        let mut signatures = Vec::new();
-        for form in forms {
-            let (n, sig) =
-                parse_form(form).unwrap_or_else(|e| panic!("builtin form `{form}`: {e}"));
-            if let Some(prev) = name {
-                assert_eq!(prev, n, "all forms of a builtin share its name");
-            }
-            name = Some(n);
-            signatures.push(sig);
-        }
-        let name: &'static str = Box::leak(
-            name.expect("at least one form")
-                .to_string()
-                .into_boxed_str(),
-        );
-        let previous = self.builtins.insert(
-            name,
-            Builtin {
-                name,
-                doc,
-                signatures,
-                run,
-                group,
-            },
-        );
-        assert!(previous.is_none(), "builtin `{name}` registered twice");
+        let name = self.signatures.add(group, forms, doc);
+        self.implementations.insert(name, run);
     }
 
-    /// Gives parameter `param` of every form of `builtin` a fixed set of string values.
-    /// Panics when there is no such parameter: the call is part of felt's source.
+    /// See `Signatures::choices`.
     pub fn choices(
         &mut self,
         builtin: &str,
@@ -255,44 +262,34 @@ impl Registry {
         noun: &'static str,
         values: &'static [&'static str],
     ) {
-        for p in self.params_named(builtin, param) {
-            p.choices = Some(Choices { noun, values });
-        }
+        self.signatures.choices(builtin, param, noun, values);
     }
 
-    /// Records names other tools give parameter `param` of `builtin`, for the did-you-mean
-    /// of an unknown keyword.
+    /// See `Signatures::aliases`.
     pub fn aliases(&mut self, builtin: &str, param: &str, aliases: &'static [&'static str]) {
-        for p in self.params_named(builtin, param) {
-            p.aliases = aliases;
-        }
+        self.signatures.aliases(builtin, param, aliases);
     }
 
-    fn params_named(&mut self, builtin: &str, param: &str) -> Vec<&mut Param> {
-        let b = self
-            .builtins
-            .get_mut(builtin)
-            .unwrap_or_else(|| panic!("no builtin `{builtin}`"));
-        let params: Vec<&mut Param> = b
-            .signatures
-            .iter_mut()
-            .flat_map(|s| s.params.iter_mut())
-            .filter(|p| p.name == param)
-            .collect();
-        assert!(!params.is_empty(), "`{builtin}` has no parameter `{param}`");
-        params
+    /// Every builtin's signatures, for the checker.
+    pub fn signatures(&self) -> &Signatures {
+        &self.signatures
     }
 
     pub fn get(&self, name: &str) -> Option<&Builtin> {
-        self.builtins.get(name)
+        self.signatures.get(name)
+    }
+
+    /// The implementation of builtin `name`.
+    pub fn implementation(&self, name: &str) -> Option<BuiltinFn> {
+        self.implementations.get(name).copied()
     }
 
     pub fn names(&self) -> impl Iterator<Item = &'static str> + '_ {
-        self.builtins.keys().copied()
+        self.signatures.names()
     }
 
     pub fn all(&self) -> impl Iterator<Item = &Builtin> {
-        self.builtins.values()
+        self.signatures.all()
     }
 }
 
@@ -306,90 +303,55 @@ pub fn registry() -> &'static Registry {
     })
 }
 
-/// Parses `name(type a, type b?, type...) -> ret`.
-fn parse_form(form: &str) -> Result<(&str, Signature), String> {
-    let open = form.find('(').ok_or("missing `(`")?;
-    let close = form.rfind(')').ok_or("missing `)`")?;
-    let name = form[..open].trim();
-    let ret = match form[close + 1..].trim() {
-        "" => Type::Void,
-        r => parse_type(r.strip_prefix("->").ok_or("expected `->`")?.trim())?,
-    };
-    let mut params = Vec::new();
-    let mut variadic = None;
-    let inner = form[open + 1..close].trim();
-    if !inner.is_empty() {
-        for part in inner.split(',') {
-            let part = part.trim();
-            if let Some(ty) = part.strip_suffix("...") {
-                variadic = Some(parse_param_type(ty.trim())?);
-                continue;
-            }
-            let (ty, pname) = part
-                .rsplit_once(' ')
-                .ok_or("parameter needs a type and a name")?;
-            let (pname, optional) = match pname.strip_suffix('?') {
-                Some(n) => (n, true),
-                None => (pname, false),
-            };
-            params.push(Param {
-                name: pname.to_string(),
-                ty: parse_param_type(ty.trim())?,
-                optional,
-                choices: None,
-                aliases: &[],
-            });
-        }
-    }
-    Ok((
-        name,
-        Signature {
-            params,
-            variadic,
-            ret,
-        },
-    ))
-}
-
-fn parse_param_type(text: &str) -> Result<ParamType, String> {
-    Ok(match text {
-        "any" => ParamType::Any,
-        "any[]" => ParamType::AnyArray,
-        t => ParamType::Exact(parse_type(t)?),
-    })
-}
-
-fn parse_type(text: &str) -> Result<Type, String> {
-    if let Some(elem) = text.strip_suffix("[]") {
-        return Ok(Type::array_of(parse_type(elem)?));
-    }
-    Ok(match text {
-        "int" => Type::Int,
-        "float" => Type::Float,
-        "bool" => Type::Bool,
-        "string" => Type::Str,
-        "vector" => Type::Vector,
-        "matrix" => Type::Matrix,
-        "scalarfield" => Type::ScalarField,
-        "vectorfield" => Type::VectorField,
-        "matrixfield" => Type::MatrixField,
-        "domain" => Type::Domain,
-        "scalarcache" => Type::ScalarCache,
-        "vectorcache" => Type::VectorCache,
-        "matrixcache" => Type::MatrixCache,
-        "shape" => Type::Shape,
-        "particles" => Type::Particles,
-        "camera" => Type::Camera,
-        "light" => Type::Light,
-        "cloudsim" => Type::CloudSim,
-        "void" => Type::Void,
-        other => return Err(format!("unknown type `{other}`")),
-    })
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::check::signature::parse_form;
+
+    /// The arguments of `builtin`'s first form with only `given` given.
+    fn args(builtin: &str, given: &[(&str, Value)]) -> Args {
+        let builtin = registry().get(builtin).unwrap();
+        let signature = &builtin.signatures[0];
+        let mut values = vec![None; signature.params.len()];
+        for (name, value) in given {
+            values[signature.param_index(name).unwrap()] = Some(value.clone());
+        }
+        Args::new(builtin, 0, values, Vec::new())
+    }
+
+    #[test]
+    fn range_checks_read_by_name_and_word_every_message_alike() {
+        let a = args("sphere", &[("radius", Value::Float(-1.0))]);
+        let message = a.positive_float("radius").unwrap_err().message;
+        assert_eq!(message, "sphere radius must be positive, found -1");
+        let a = args("sphere", &[("radius", Value::Float(f64::NAN))]);
+        assert!(a.positive_float("radius").is_err());
+        let a = args("sphere", &[("radius", Value::Float(0.5))]);
+        assert_eq!(a.positive_float("radius").unwrap(), 0.5);
+        assert!(!a.given("center"));
+        assert_eq!(
+            a.get("center").unwrap_err().message,
+            "missing argument `center`"
+        );
+
+        let a = args(
+            "render",
+            &[("width", Value::Int(0)), ("spp", Value::Int(4))],
+        );
+        assert_eq!(
+            a.opt_positive_int("width").unwrap_err().message,
+            "render width must be a positive whole number, found 0"
+        );
+        assert_eq!(a.opt_positive_int("spp").unwrap(), Some(4));
+        assert_eq!(a.opt_positive_int("height").unwrap(), None);
+
+        let a = args("render", &[("albedo", Value::Float(1.5))]);
+        assert_eq!(
+            a.opt_float_in("albedo", 0.0..=1.0).unwrap_err().message,
+            "render albedo must be between 0 and 1, found 1.5"
+        );
+        assert_eq!(a.opt_int_in("seed", 0..=9).unwrap(), None);
+    }
 
     #[test]
     fn every_builtin_form_parses_and_prints_back() {
@@ -397,23 +359,15 @@ mod tests {
         assert!(r.get("print").is_some());
         for b in r.all() {
             assert!(!b.doc.is_empty(), "`{}` has no doc line", b.name);
+            assert!(
+                r.implementation(b.name).is_some(),
+                "`{}` does nothing",
+                b.name
+            );
             for form in b.forms() {
                 let (name, _) = parse_form(&form).unwrap();
                 assert_eq!(name, b.name);
             }
         }
-    }
-
-    #[test]
-    fn forms_parse() {
-        let (name, sig) =
-            parse_form("render(string path, scalarfield density?, float...)").unwrap();
-        assert_eq!(name, "render");
-        assert_eq!(sig.params.len(), 2);
-        assert!(sig.params[1].optional);
-        assert_eq!(sig.variadic, Some(ParamType::Exact(Type::Float)));
-        assert_eq!(sig.ret, Type::Void);
-        let (_, sig) = parse_form("layers(int n) -> scalarfield[]").unwrap();
-        assert_eq!(sig.ret, Type::array_of(Type::ScalarField));
     }
 }

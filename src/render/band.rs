@@ -16,7 +16,6 @@
 use crate::failure::{Failure, Outcome};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
 
 /// Rows per band edge: the march's largest tile side.
 pub const ROW_GROUP: usize = 16;
@@ -63,16 +62,16 @@ impl std::str::FromStr for Band {
     }
 }
 
-static BAND: OnceLock<Band> = OnceLock::new();
-
-/// Makes every render of this process draw only `band`.
+/// Makes every render of the current engine (`crate::engine`) draw only `band`.
 pub fn set(band: Band) {
-    let _ = BAND.set(band);
+    crate::engine::with(|e| {
+        let _ = e.band.set(band);
+    });
 }
 
-/// The band this process renders, if it renders one.
+/// The band the current engine renders, if it renders one.
 pub fn active() -> Option<Band> {
-    BAND.get().copied()
+    crate::engine::with(|e| e.band.get().copied())
 }
 
 impl Band {

@@ -36,11 +36,22 @@ pub struct Outcome {
     pub diagnostics: Vec<Diagnostic>,
     pub rendered: String,
     pub ok: bool,
+    /// The run's `--profile` rows: the grids this run (and no other) made.
+    pub profile: Vec<felt::grid::profile::ProfileEntry>,
 }
 
 pub fn run_script(path: &Path, overrides: &[(&str, &str)]) -> Outcome {
+    run_script_on(felt::engine::Engine::new(), path, overrides)
+}
+
+/// `run_script` on a given engine (its memory budget, its interrupt flag).
+pub fn run_script_on(
+    engine: std::sync::Arc<felt::engine::Engine>,
+    path: &Path,
+    overrides: &[(&str, &str)],
+) -> Outcome {
     let out = Captured::default();
-    let mut session = Session::new(Box::new(out.clone())).unwrap_or_else(|f| {
+    let mut session = Session::with_engine(Box::new(out.clone()), engine).unwrap_or_else(|f| {
         panic!(
             "{}",
             felt::diagnostic::render(&f.diagnostics, &f.sources, false)
@@ -61,6 +72,7 @@ pub fn run_script(path: &Path, overrides: &[(&str, &str)]) -> Outcome {
         diagnostics,
         rendered,
         ok,
+        profile: session.engine().profile.report(),
     }
 }
 

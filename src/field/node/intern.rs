@@ -7,6 +7,12 @@
 //! that was dropped and is made again gets that id back: ids name structures, not
 //! allocations, so what is remembered by id (substitution's memo) survives a graph that a
 //! script drops and rebuilds every step, such as a back trace whose z component nothing kept.
+//!
+//! The table is process-wide on purpose, unlike a run's budget, profile and interrupt flag
+//! (`crate::engine`): a node is a value, not a resource of one run. Equal structure is the same
+//! node whichever session built it (sessions may share graphs), the table holds only weak
+//! references so it keeps nothing of any session alive, and the memory graphs take is checked
+//! against the budget of the engine current where they are built (`check_graph_memory`).
 
 use super::{Node, NodeRef, Op};
 use std::collections::HashMap;

@@ -166,7 +166,7 @@ fn read_attribute(
         ))
         .with_help(format!("read it with {other}")));
     }
-    let Some(Value::Domain(domain)) = a.opt(2) else {
+    let Some(Value::Domain(domain)) = a.opt("d") else {
         return Ok(match values {
             Attribute::Float(v) => {
                 Value::array(v.iter().map(|&x| Value::Float(x)).collect(), Type::Float)

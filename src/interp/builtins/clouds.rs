@@ -303,13 +303,8 @@ fn seed(a: &Args) -> Outcome<u64> {
 }
 
 fn bounded(a: &Args, name: &str, default: usize, max: usize) -> Outcome<usize> {
-    match a.opt_int(name)? {
-        None => Ok(default),
-        Some(n) if (0..=max as i64).contains(&n) => Ok(n as usize),
-        Some(n) => Err(Failure::new(format!(
-            "{name} must be between 0 and {max}, found {n}"
-        ))),
-    }
+    Ok(a.opt_int_in(name, 0..=max as i64)?
+        .map_or(default, |n| n as usize))
 }
 
 fn state_bytes(state: &CloudState) -> u64 {

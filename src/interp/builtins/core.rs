@@ -66,18 +66,21 @@ fn print(interp: &mut Interpreter, args: Args) -> Outcome<Value> {
 }
 
 fn str_of(_: &mut Interpreter, args: Args) -> Outcome<Value> {
-    Ok(Value::string(&args.get(0)?.to_string()))
+    Ok(Value::string(&args.get("x")?.to_string()))
 }
 
 fn format_builtin(_: &mut Interpreter, args: Args) -> Outcome<Value> {
-    Ok(Value::string(&format::format(args.string(0)?, &args.rest)?))
+    Ok(Value::string(&format::format(
+        args.string("template")?,
+        &args.rest,
+    )?))
 }
 
 fn size(_: &mut Interpreter, args: Args) -> Outcome<Value> {
-    if let Value::Particles(p) = args.get(0)? {
+    if let Some(Value::Particles(p)) = args.opt("p") {
         return Ok(Value::Int(p.len() as i64));
     }
-    Ok(Value::Int(args.get(0)?.as_array()?.len() as i64))
+    Ok(Value::Int(args.get("a")?.as_array()?.len() as i64))
 }
 
 fn clock(interp: &mut Interpreter, _: Args) -> Outcome<Value> {
@@ -85,18 +88,12 @@ fn clock(interp: &mut Interpreter, _: Args) -> Outcome<Value> {
 }
 
 fn seed(interp: &mut Interpreter, args: Args) -> Outcome<Value> {
-    let n = args.int(0)?;
-    interp.noise_seed = u32::try_from(n).map_err(|_| {
-        Failure::new(format!(
-            "a seed must be between 0 and {}, found {n}",
-            u32::MAX
-        ))
-    })?;
+    interp.noise_seed = args.int_in("n", 0..=u32::MAX as i64)? as u32;
     Ok(Value::Void)
 }
 
 fn to_int(_: &mut Interpreter, args: Args) -> Outcome<Value> {
-    let x = args.float(0)?;
+    let x = args.float("x")?;
     if !x.is_finite() || x.abs() >= 9.2e18 {
         return Err(Failure::new(format!("{x} does not fit in an int")));
     }
@@ -104,5 +101,5 @@ fn to_int(_: &mut Interpreter, args: Args) -> Outcome<Value> {
 }
 
 fn to_float(_: &mut Interpreter, args: Args) -> Outcome<Value> {
-    Ok(Value::Float(args.float(0)?))
+    Ok(Value::Float(args.float("x")?))
 }

@@ -21,7 +21,7 @@ pub fn register(r: &mut Registry) {
         "fields",
         &["scalarfield(scalarfield f) -> scalarfield"],
         "a scalarfield; a number gives a constant field",
-        |_, a| Ok(Value::Field(a.get(0)?.as_field()?)),
+        |_, a| Ok(Value::Field(a.get("f")?.as_field()?)),
     );
     r.add(
         "fields",
@@ -31,11 +31,11 @@ pub fn register(r: &mut Registry) {
         ],
         "a vectorfield from a vector (constant) or from three scalar components",
         |_, a| match a.form {
-            0 => Ok(Value::Field(a.get(0)?.as_field()?)),
+            0 => Ok(Value::Field(a.get("v")?.as_field()?)),
             _ => Ok(Value::Field(Field::vector_from(
-                &a.get(0)?.as_field()?,
-                &a.get(1)?.as_field()?,
-                &a.get(2)?.as_field()?,
+                &a.get("x")?.as_field()?,
+                &a.get("y")?.as_field()?,
+                &a.get("z")?.as_field()?,
             )?)),
         },
     );
@@ -47,11 +47,11 @@ pub fn register(r: &mut Registry) {
         ],
         "a matrixfield from a matrix (constant) or from three row vectorfields",
         |_, a| match a.form {
-            0 => Ok(Value::Field(a.get(0)?.as_field()?)),
+            0 => Ok(Value::Field(a.get("m")?.as_field()?)),
             _ => Ok(Value::Field(Field::matrix_from_rows(
-                &a.get(0)?.as_field()?,
-                &a.get(1)?.as_field()?,
-                &a.get(2)?.as_field()?,
+                &a.get("row0")?.as_field()?,
+                &a.get("row1")?.as_field()?,
+                &a.get("row2")?.as_field()?,
             )?)),
         },
     );
@@ -59,7 +59,7 @@ pub fn register(r: &mut Registry) {
         "fields",
         &["mask(scalarfield f) -> scalarfield"],
         "1 where f >= 0, else 0 (a Heaviside step)",
-        |_, a| Ok(Value::Field(a.get(0)?.as_field()?.mask()?)),
+        |_, a| Ok(Value::Field(a.get("f")?.as_field()?.mask()?)),
     );
     r.add(
         "fields",
@@ -71,9 +71,9 @@ pub fn register(r: &mut Registry) {
         "a where c >= 0, else b",
         |_, a| {
             Ok(Value::Field(Field::select(
-                &a.get(0)?.as_field()?,
-                &a.get(1)?.as_field()?,
-                &a.get(2)?.as_field()?,
+                &a.get("c")?.as_field()?,
+                &a.get("a")?.as_field()?,
+                &a.get("b")?.as_field()?,
             )?))
         },
     );
@@ -84,19 +84,23 @@ pub fn register(r: &mut Registry) {
             "grad(vectorfield v) -> matrixfield",
         ],
         "exact gradient (of a vectorfield: the Jacobian, J[i][j] = dv_i/dx_j)",
-        |_, a| Ok(Value::Field(field::grad(&a.get(0)?.as_field()?)?)),
+        |_, a| {
+            Ok(Value::Field(field::grad(
+                &a.one_of(&["f", "v"])?.as_field()?,
+            )?))
+        },
     );
     r.add(
         "calculus",
         &["div(vectorfield v) -> scalarfield"],
         "divergence",
-        |_, a| Ok(Value::Field(field::div(&a.get(0)?.as_field()?)?)),
+        |_, a| Ok(Value::Field(field::div(&a.get("v")?.as_field()?)?)),
     );
     r.add(
         "calculus",
         &["curl(vectorfield v) -> vectorfield"],
         "curl",
-        |_, a| Ok(Value::Field(field::curl(&a.get(0)?.as_field()?)?)),
+        |_, a| Ok(Value::Field(field::curl(&a.get("v")?.as_field()?)?)),
     );
     r.add(
         "calculus",
@@ -105,7 +109,11 @@ pub fn register(r: &mut Registry) {
             "laplacian(vectorfield v) -> vectorfield",
         ],
         "sum of second derivatives (componentwise for a vectorfield)",
-        |_, a| Ok(Value::Field(field::laplacian(&a.get(0)?.as_field()?)?)),
+        |_, a| {
+            Ok(Value::Field(field::laplacian(
+                &a.one_of(&["f", "v"])?.as_field()?,
+            )?))
+        },
     );
     r.add(
         "warping",
@@ -117,8 +125,8 @@ pub fn register(r: &mut Registry) {
         "f evaluated at the points x(p)",
         |_, a| {
             Ok(Value::Field(field::compose(
-                &a.get(0)?.as_field()?,
-                &a.get(1)?.as_field()?,
+                &a.get("f")?.as_field()?,
+                &a.get("x")?.as_field()?,
             )?))
         },
     );
@@ -132,15 +140,15 @@ pub fn register(r: &mut Registry) {
         "f carried along velocity u for time dt: a semi-Lagrangian back-trace (order 1, or Runge-Kutta 2, 3, 4); \
          scheme = \"maccormack\" or \"bfecc\" corrects the back-trace's error (clamped where f is a grid read)",
         |interp, a| {
-            let order = a.opt_int(3)?.unwrap_or(1);
+            let order = a.opt_int("order")?.unwrap_or(1);
             if !(1..=4).contains(&order) {
                 return Err(Failure::new(format!("advect order must be 1, 2, 3 or 4, found {order}")));
             }
-            let scheme = match a.opt(4) {
+            let scheme = match a.opt("scheme") {
                 Some(v) => field::Scheme::named(v.as_str()?)?,
                 None => field::Scheme::SemiLagrangian,
             };
-            let (f, u, dt) = (a.get(0)?.as_field()?, a.get(1)?.as_field()?, a.get(2)?.as_field()?);
+            let (f, u, dt) = (a.get("f")?.as_field()?, a.get("u")?.as_field()?, a.get("dt")?.as_field()?);
             if let Some(FieldValue::Scalar(step)) = dt.as_constant()
                 && !step.is_finite()
             {
@@ -172,8 +180,8 @@ pub fn register(r: &mut Registry) {
         "f moved by offset: f(x - offset)",
         |_, a| {
             Ok(Value::Field(field::translate(
-                &a.get(0)?.as_field()?,
-                a.get(1)?.as_vector()?,
+                &a.get("f")?.as_field()?,
+                a.get("offset")?.as_vector()?,
             )?))
         },
     );
@@ -186,14 +194,14 @@ pub fn register(r: &mut Registry) {
         ],
         "f rotated about the origin by angle (radians) around axis",
         |_, a| {
-            let axis = a.get(1)?.as_vector()?;
+            let axis = a.get("axis")?.as_vector()?;
             if axis.length() == 0.0 {
                 return Err(Failure::new("rotate needs a non-zero axis"));
             }
             Ok(Value::Field(field::rotate(
-                &a.get(0)?.as_field()?,
+                &a.get("f")?.as_field()?,
                 axis,
-                a.float(2)?,
+                a.float("angle")?,
             )?))
         },
     );
@@ -206,7 +214,7 @@ pub fn register(r: &mut Registry) {
         ],
         "f stretched by factor about the origin: f(x / factor); a number scales all axes",
         |_, a| {
-            let factor = match a.get(1)? {
+            let factor = match a.get("factor")? {
                 Value::Vector(v) => *v,
                 v => glam::DVec3::splat(v.as_float()?),
             };
@@ -215,7 +223,10 @@ pub fn register(r: &mut Registry) {
                     "scale factors must be finite and non-zero, found {factor}"
                 )));
             }
-            Ok(Value::Field(field::scale(&a.get(0)?.as_field()?, factor)?))
+            Ok(Value::Field(field::scale(
+                &a.get("f")?.as_field()?,
+                factor,
+            )?))
         },
     );
     r.add(
@@ -234,10 +245,10 @@ pub fn register(r: &mut Registry) {
         "(min, max, mean) of f over the cell centres of d, of its finite values (with a \
          warning when some are NaN or infinite)",
         |interp, a| {
-            let Value::Domain(d) = a.get(1)? else {
+            let Value::Domain(d) = a.get("d")? else {
                 return Err(Failure::new("stats needs a domain"));
             };
-            let (min, max, mean, bad) = field::stats_with_count(&a.get(0)?.as_field()?, d)?;
+            let (min, max, mean, bad) = field::stats_with_count(&a.get("f")?.as_field()?, d)?;
             if bad > 0 {
                 let cells = d.cell_count() as u64;
                 let left = if bad == cells {
@@ -264,8 +275,8 @@ pub fn register(r: &mut Registry) {
 }
 
 fn probe(_: &mut Interpreter, a: Args) -> Outcome<Value> {
-    let f = a.get(0)?.as_field()?;
-    let p = a.get(1)?.as_vector()?;
+    let f = a.get("f")?.as_field()?;
+    let p = a.get("point")?.as_vector()?;
     if !p.is_finite() {
         return Err(Failure::new(format!(
             "probe point must be finite, found {p}"

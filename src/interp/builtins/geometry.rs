@@ -26,9 +26,9 @@ pub fn register(r: &mut Registry) {
         "the zero set of a level set as a closed triangle mesh (marching cubes over d's cells, or \
          over the level set's inside at 128 cells along its longest side)",
         |_, a| {
-            let ls = a.get(0)?.as_field()?;
+            let ls = a.get("ls")?.as_field()?;
             let sampler = CompiledField::prepared(&ls)?;
-            let domain = match a.opt(1) {
+            let domain = match a.opt("d") {
                 Some(Value::Domain(d)) => {
                     if d.resolution.is_none() {
                         return Err(Failure::new("ls2shape needs a domain with a cell size"));
@@ -47,10 +47,10 @@ pub fn register(r: &mut Registry) {
         &["shape2ls(shape s, domain d) -> scalarfield"],
         "the signed distance to a mesh (positive inside, by winding number), sampled at d's cells",
         |interp, a| {
-            let Value::Shape(mesh) = a.get(0)? else {
+            let Value::Shape(mesh) = a.get("s")? else {
                 return Err(Failure::new("expected a shape"));
             };
-            let Value::Domain(d) = a.get(1)? else {
+            let Value::Domain(d) = a.get("d")? else {
                 return Err(Failure::new("expected a domain"));
             };
             if d.resolution.is_none() {
@@ -69,7 +69,7 @@ pub fn register(r: &mut Registry) {
         &["loadshape(string path) -> shape"],
         "reads a triangle mesh from an OBJ or PLY file",
         |interp, a| {
-            let path = interp.files.reading(a.string(0)?)?;
+            let path = interp.files.reading(a.string("path")?)?;
             Ok(Value::Shape(Rc::new(geometry::load_mesh(&path)?)))
         },
     );
@@ -78,10 +78,10 @@ pub fn register(r: &mut Registry) {
         &["saveshape(shape s, string path) -> void"],
         "writes a mesh as OBJ (text) or PLY (binary), by the path's extension",
         |interp, a| {
-            let Value::Shape(mesh) = a.get(0)? else {
+            let Value::Shape(mesh) = a.get("s")? else {
                 return Err(Failure::new("expected a shape"));
             };
-            geometry::save_mesh(mesh, &interp.files.writing(a.string(1)?)?)?;
+            geometry::save_mesh(mesh, &interp.files.writing(a.string("path")?)?)?;
             Ok(Value::Void)
         },
     );
@@ -94,10 +94,10 @@ pub fn register(r: &mut Registry) {
         "the connected components of a mesh; with minvolume, only those enclosing at least that \
          volume (slivers dropped)",
         |_, a| {
-            let Value::Shape(mesh) = a.get(0)? else {
+            let Value::Shape(mesh) = a.get("s")? else {
                 return Err(Failure::new("expected a shape"));
             };
-            let parts = match a.opt_float(1)? {
+            let parts = match a.opt_float("minvolume")? {
                 None => geometry::pieces(mesh),
                 Some(least) => geometry::pieces_above(mesh, minimum_volume(least)?).0,
             };
@@ -134,25 +134,25 @@ pub fn register(r: &mut Registry) {
         "geometry",
         &["volume(shape s) -> float"],
         "the volume a closed mesh encloses",
-        |_, a| Ok(Value::Float(mesh_of(a.get(0)?)?.volume())),
+        |_, a| Ok(Value::Float(mesh_of(a.get("s")?)?.volume())),
     );
     r.add(
         "geometry",
         &["area(shape s) -> float"],
         "the surface area of a mesh",
-        |_, a| Ok(Value::Float(mesh_of(a.get(0)?)?.area())),
+        |_, a| Ok(Value::Float(mesh_of(a.get("s")?)?.area())),
     );
     r.add(
         "geometry",
         &["vertices(shape s) -> int"],
         "the number of vertices of a mesh",
-        |_, a| Ok(Value::Int(mesh_of(a.get(0)?)?.positions.len() as i64)),
+        |_, a| Ok(Value::Int(mesh_of(a.get("s")?)?.positions.len() as i64)),
     );
     r.add(
         "geometry",
         &["triangles(shape s) -> int"],
         "the number of triangles of a mesh",
-        |_, a| Ok(Value::Int(mesh_of(a.get(0)?)?.triangles.len() as i64)),
+        |_, a| Ok(Value::Int(mesh_of(a.get("s")?)?.triangles.len() as i64)),
     );
 }
 

@@ -36,17 +36,17 @@ pub fn register(r: &mut Registry) {
         "an oriented box (corner, edge lengths, rotation vector), with cubic or (xy, z) cells",
         |interp, a| {
             let (origin, lengths, orientation) = (
-                a.get(0)?.as_vector()?,
-                a.get(1)?.as_vector()?,
-                a.get(2)?.as_vector()?,
+                a.get("origin")?.as_vector()?,
+                a.get("lengths")?.as_vector()?,
+                a.get("orientation")?.as_vector()?,
             );
             let domain = match a.form {
                 0 => Domain::new(origin, lengths, orientation)?,
                 1 => {
-                    let cell = a.float(3)?;
+                    let cell = a.float("cell")?;
                     Domain::with_cells(origin, lengths, orientation, cell, cell)?
                 }
-                _ => Domain::with_cells(origin, lengths, orientation, a.float(3)?, a.float(4)?)?,
+                _ => Domain::with_cells(origin, lengths, orientation, a.float("cellxy")?, a.float("cellz")?)?,
             };
             if let Some((axis, asked, made)) = domain.length_change(lengths) {
                 warn_length_change(interp, &domain, axis, asked, made);
@@ -59,7 +59,7 @@ pub fn register(r: &mut Registry) {
         &["scalarcache(domain d, float background?) -> scalarcache"],
         "storage for a scalarfield at the cell centres of d; reads give background outside d",
         |_, a| {
-            let background = a.opt_float(1)?.unwrap_or(0.0);
+            let background = a.opt_float("background")?.unwrap_or(0.0);
             new_cache(&a, Shape::Scalar, vec![background])
         },
     );
@@ -68,7 +68,7 @@ pub fn register(r: &mut Registry) {
         &["vectorcache(domain d, vector background?) -> vectorcache"],
         "storage for a vectorfield at the cell centres of d",
         |_, a| {
-            let b = match a.opt(1) {
+            let b = match a.opt("background") {
                 Some(v) => v.as_vector()?,
                 None => DVec3::ZERO,
             };
@@ -80,7 +80,7 @@ pub fn register(r: &mut Registry) {
         &["matrixcache(domain d, matrix background?) -> matrixcache"],
         "storage for a matrixfield at the cell centres of d",
         |_, a| {
-            let m = match a.opt(1) {
+            let m = match a.opt("background") {
                 Some(v) => v.as_matrix()?,
                 None => DMat3::ZERO,
             };
@@ -316,7 +316,7 @@ impl ReadOptions {
 
 /// `cacheload`'s grid as a cache, with a warning when it holds NaN or infinite values.
 fn load_checked(interp: &mut Interpreter, a: &Args, width: usize) -> Outcome<Cache> {
-    let (path, name) = (interp.files.reading(a.string(0)?)?, a.string(1)?);
+    let (path, name) = (interp.files.reading(a.string("path")?)?, a.string("grid")?);
     let (cache, check) = vdb_cache::load(&path, name, width)?;
     if let Some(message) = check.warning(&path, name) {
         interp.warnings.push(
@@ -330,7 +330,7 @@ fn load_checked(interp: &mut Interpreter, a: &Args, width: usize) -> Outcome<Cac
 }
 
 fn new_cache(a: &Args, shape: Shape, background: Vec<f64>) -> Outcome<Value> {
-    let Value::Domain(d) = a.get(0)? else {
+    let Value::Domain(d) = a.get("d")? else {
         return Err(Failure::new("a cache needs a domain"));
     };
     if d.resolution.is_none() {
@@ -354,7 +354,7 @@ fn new_cache(a: &Args, shape: Shape, background: Vec<f64>) -> Outcome<Value> {
 }
 
 pub fn cache_var(a: &Args) -> Outcome<&Rc<CacheVar>> {
-    match a.get(0)? {
+    match a.get("c")? {
         Value::Cache(c) => Ok(c),
         other => Err(Failure::new(format!(
             "expected a cache, found {}",
@@ -365,7 +365,7 @@ pub fn cache_var(a: &Args) -> Outcome<&Rc<CacheVar>> {
 
 fn cachewrite(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
     let var = cache_var(&a)?;
-    let field = a.get(1)?.as_field()?;
+    let field = a.get("f")?.as_field()?;
     let width = field.kind().width();
     let label = format!(
         "cachewrite at {}",

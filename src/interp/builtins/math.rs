@@ -13,7 +13,7 @@ use glam::{DMat3, DVec3};
 macro_rules! unary {
     ($r:expr, $name:literal, $doc:literal, $plain:expr, $function:expr) => {{
         fn run(_: &mut Interpreter, args: Args) -> Outcome<Value> {
-            match args.get(0)? {
+            match args.get("x")? {
                 Value::Field(f) => Ok(Value::Field(f.math($function)?)),
                 v => {
                     let plain: fn(f64) -> f64 = $plain;
@@ -86,7 +86,7 @@ pub fn register(r: &mut Registry) {
             "atan2(scalarfield y, scalarfield x) -> scalarfield",
         ],
         "angle of the point (x, y) from the x axis, in (-pi, pi]",
-        |_, a| binary(&a, f64::atan2, Field::atan2),
+        |_, a| binary(&a, ["y", "x"], f64::atan2, Field::atan2),
     );
     r.add(
         "math",
@@ -95,7 +95,7 @@ pub fn register(r: &mut Registry) {
             "pow(scalarfield a, scalarfield b) -> scalarfield",
         ],
         "a to the power b (the same as a ^ b)",
-        |_, a| binary(&a, f64::powf, Field::pow_field),
+        |_, a| binary(&a, ["a", "b"], f64::powf, Field::pow_field),
     );
     r.add(
         "math",
@@ -105,9 +105,9 @@ pub fn register(r: &mut Registry) {
             "min(scalarfield a, scalarfield b) -> scalarfield",
         ],
         "the smaller of a and b",
-        |_, a| match (a.get(0)?, a.get(1)?) {
+        |_, a| match (a.get("a")?, a.get("b")?) {
             (Value::Int(x), Value::Int(y)) => Ok(Value::Int(*x.min(y))),
-            _ => binary(&a, f64::min, Field::min),
+            _ => binary(&a, ["a", "b"], f64::min, Field::min),
         },
     );
     r.add(
@@ -118,9 +118,9 @@ pub fn register(r: &mut Registry) {
             "max(scalarfield a, scalarfield b) -> scalarfield",
         ],
         "the larger of a and b",
-        |_, a| match (a.get(0)?, a.get(1)?) {
+        |_, a| match (a.get("a")?, a.get("b")?) {
             (Value::Int(x), Value::Int(y)) => Ok(Value::Int(*x.max(y))),
-            _ => binary(&a, f64::max, Field::max),
+            _ => binary(&a, ["a", "b"], f64::max, Field::max),
         },
     );
     r.add(
@@ -130,7 +130,14 @@ pub fn register(r: &mut Registry) {
             "clamp(scalarfield x, scalarfield lo, scalarfield hi) -> scalarfield",
         ],
         "x limited to [lo, hi]",
-        |_, a| ternary(&a, |x, lo, hi| x.max(lo).min(hi), Field::clamp),
+        |_, a| {
+            ternary(
+                &a,
+                ["x", "lo", "hi"],
+                |x, lo, hi| x.max(lo).min(hi),
+                Field::clamp,
+            )
+        },
     );
     r.add(
         "math",
@@ -139,7 +146,7 @@ pub fn register(r: &mut Registry) {
             "smoothstep(scalarfield e0, scalarfield e1, scalarfield x) -> scalarfield",
         ],
         "0 below e0, 1 above e1, the cubic 3t^2 - 2t^3 between",
-        |_, a| ternary(&a, smoothstep, Field::smoothstep),
+        |_, a| ternary(&a, ["e0", "e1", "x"], smoothstep, Field::smoothstep),
     );
     r.add(
         "math",
@@ -159,7 +166,7 @@ pub fn register(r: &mut Registry) {
             "length(vectorfield v) -> scalarfield",
         ],
         "Euclidean length",
-        |_, a| match a.get(0)? {
+        |_, a| match a.get("v")? {
             Value::Field(f) => Ok(Value::Field(f.length()?)),
             v => Ok(Value::Float(v.as_vector()?.length())),
         },
@@ -171,7 +178,7 @@ pub fn register(r: &mut Registry) {
             "normalize(vectorfield v) -> vectorfield",
         ],
         "v / |v|, and the zero vector for a zero vector",
-        |_, a| match a.get(0)? {
+        |_, a| match a.get("v")? {
             Value::Field(f) => Ok(Value::Field(f.normalize()?)),
             v => Ok(Value::Vector(v.as_vector()?.normalize_or_zero())),
         },
@@ -183,7 +190,7 @@ pub fn register(r: &mut Registry) {
             "dot(vectorfield a, vectorfield b) -> scalarfield",
         ],
         "inner product (the same as a * b)",
-        |_, a| match (a.get(0)?, a.get(1)?) {
+        |_, a| match (a.get("a")?, a.get("b")?) {
             (Value::Vector(x), Value::Vector(y)) => Ok(Value::Float(x.dot(*y))),
             (x, y) => Ok(Value::Field(x.as_field()?.mul(&y.as_field()?)?)),
         },
@@ -195,7 +202,7 @@ pub fn register(r: &mut Registry) {
             "cross(vectorfield a, vectorfield b) -> vectorfield",
         ],
         "cross product",
-        |_, a| match (a.get(0)?, a.get(1)?) {
+        |_, a| match (a.get("a")?, a.get("b")?) {
             (Value::Vector(x), Value::Vector(y)) => Ok(Value::Vector(x.cross(*y))),
             (x, y) => Ok(Value::Field(x.as_field()?.cross(&y.as_field()?)?)),
         },
@@ -207,7 +214,7 @@ pub fn register(r: &mut Registry) {
             "outer(vectorfield a, vectorfield b) -> matrixfield",
         ],
         "outer product: the matrix with rows a_i b",
-        |_, a| match (a.get(0)?, a.get(1)?) {
+        |_, a| match (a.get("a")?, a.get("b")?) {
             (Value::Vector(x), Value::Vector(y)) => Ok(Value::Matrix(outer(*x, *y))),
             (x, y) => Ok(Value::Field(x.as_field()?.outer(&y.as_field()?)?)),
         },
@@ -219,7 +226,7 @@ pub fn register(r: &mut Registry) {
             "transpose(matrixfield m) -> matrixfield",
         ],
         "rows and columns exchanged",
-        |_, a| match a.get(0)? {
+        |_, a| match a.get("m")? {
             Value::Field(f) => Ok(Value::Field(f.transpose()?)),
             v => Ok(Value::Matrix(v.as_matrix()?.transpose())),
         },
@@ -231,7 +238,7 @@ pub fn register(r: &mut Registry) {
             "det(matrixfield m) -> scalarfield",
         ],
         "determinant",
-        |_, a| match a.get(0)? {
+        |_, a| match a.get("m")? {
             Value::Field(f) => Ok(Value::Field(f.det()?)),
             v => Ok(Value::Float(v.as_matrix()?.determinant())),
         },
@@ -243,7 +250,7 @@ pub fn register(r: &mut Registry) {
             "trace(matrixfield m) -> scalarfield",
         ],
         "sum of the diagonal",
-        |_, a| match a.get(0)? {
+        |_, a| match a.get("m")? {
             Value::Field(f) => Ok(Value::Field(f.trace()?)),
             v => {
                 let m = v.as_matrix()?;
@@ -255,7 +262,7 @@ pub fn register(r: &mut Registry) {
         "math",
         &["inverse(matrix m) -> matrix", "inverse(matrixfield m) -> matrixfield"],
         "matrix inverse; an error for a singular plain matrix, the pseudo-inverse where a matrixfield is singular",
-        |_, a| match a.get(0)? {
+        |_, a| match a.get("m")? {
             Value::Field(f) => Ok(Value::Field(f.inverse()?)),
             v => inverse(v.as_matrix()?).map(Value::Matrix),
         },
@@ -266,9 +273,9 @@ pub fn register(r: &mut Registry) {
         "the vector (x, y, z)",
         |_, a| {
             Ok(Value::Vector(DVec3::new(
-                a.float(0)?,
-                a.float(1)?,
-                a.float(2)?,
+                a.float("x")?,
+                a.float("y")?,
+                a.float("z")?,
             )))
         },
     );
@@ -278,9 +285,9 @@ pub fn register(r: &mut Registry) {
         "the matrix with these rows",
         |_, a| {
             let rows = [
-                a.get(0)?.as_vector()?,
-                a.get(1)?.as_vector()?,
-                a.get(2)?.as_vector()?,
+                a.get("row0")?.as_vector()?,
+                a.get("row1")?.as_vector()?,
+                a.get("row2")?.as_vector()?,
             ];
             Ok(Value::Matrix(crate::interp::value::matrix_from_rows(
                 rows[0], rows[1], rows[2],
@@ -289,24 +296,28 @@ pub fn register(r: &mut Registry) {
     );
 }
 
+/// A builtin of two plain or field operands, the parameters `names`.
 fn binary(
     a: &Args,
+    names: [&str; 2],
     plain: fn(f64, f64) -> f64,
     field: fn(&Field, &Field) -> Outcome<Field>,
 ) -> Outcome<Value> {
-    let (x, y) = (a.get(0)?, a.get(1)?);
+    let (x, y) = (a.get(names[0])?, a.get(names[1])?);
     if matches!(x, Value::Field(_)) || matches!(y, Value::Field(_)) {
         return Ok(Value::Field(field(&x.as_field()?, &y.as_field()?)?));
     }
     Ok(Value::Float(plain(x.as_float()?, y.as_float()?)))
 }
 
+/// A builtin of three plain or field operands, the parameters `names`.
 fn ternary(
     a: &Args,
+    names: [&str; 3],
     plain: fn(f64, f64, f64) -> f64,
     field: fn(&Field, &Field, &Field) -> Outcome<Field>,
 ) -> Outcome<Value> {
-    let (x, y, z) = (a.get(0)?, a.get(1)?, a.get(2)?);
+    let (x, y, z) = (a.get(names[0])?, a.get(names[1])?, a.get(names[2])?);
     if [x, y, z].iter().any(|v| matches!(v, Value::Field(_))) {
         return Ok(Value::Field(field(
             &x.as_field()?,
@@ -327,7 +338,7 @@ fn smoothstep(e0: f64, e1: f64, x: f64) -> f64 {
 }
 
 fn lerp(_: &mut Interpreter, a: Args) -> Outcome<Value> {
-    let (x, y, t) = (a.get(0)?, a.get(1)?, a.get(2)?);
+    let (x, y, t) = (a.get("a")?, a.get("b")?, a.get("t")?);
     match (x, y, t) {
         (Value::Vector(p), Value::Vector(q), t) if !matches!(t, Value::Field(_)) => {
             Ok(Value::Vector(*p + (*q - *p) * t.as_float()?))

@@ -41,7 +41,7 @@ pub fn register(r: &mut Registry) {
         "Worley (cellular) noise F1: distance to the nearest feature point, in [0, 1]; inverted gives 1 - F1",
         |interp, a| {
             let f = base_noise(interp, &a, NoiseKind::Worley)?;
-            let inverted = matches!(a.opt(2), Some(Value::Bool(true)));
+            let inverted = matches!(a.opt("inverted"), Some(Value::Bool(true)));
             Ok(Value::Field(if inverted { Field::constant_scalar(1.0).sub(&f)? } else { f }))
         },
     );
@@ -76,11 +76,11 @@ pub fn register(r: &mut Registry) {
         &["vnoise(scalarfield noise, vector offset1, vector offset2) -> vectorfield"],
         "the vector (noise(x), noise(x + offset1), noise(x + offset2))",
         |_, a| {
-            let n = a.get(0)?.as_field()?;
+            let n = a.get("noise")?.as_field()?;
             Ok(Value::Field(vnoise_of(
                 &n,
-                a.get(1)?.as_vector()?,
-                a.get(2)?.as_vector()?,
+                a.get("offset1")?.as_vector()?,
+                a.get("offset2")?.as_vector()?,
             )?))
         },
     );
@@ -89,12 +89,12 @@ pub fn register(r: &mut Registry) {
         &["fbm(scalarfield noise, int octaves, scalarfield freq, scalarfield fjump, scalarfield rough) -> scalarfield"],
         "fractal sum: octave i is rough^i * noise(x * freq * fjump^i); parameters may vary in space",
         |_, a| {
-            let octaves = a.int(1)?;
+            let octaves = a.int("octaves")?;
             if !(1..=32).contains(&octaves) {
                 return Err(Failure::new(format!("fbm takes 1 to 32 octaves, found {octaves}")));
             }
-            let noise = a.get(0)?.as_field()?;
-            let (freq, fjump, rough) = (a.get(2)?.as_field()?, a.get(3)?.as_field()?, a.get(4)?.as_field()?);
+            let noise = a.get("noise")?.as_field()?;
+            let (freq, fjump, rough) = (a.get("freq")?.as_field()?, a.get("fjump")?.as_field()?, a.get("rough")?.as_field()?);
             Ok(Value::Field(fbm(&noise, octaves as usize, &freq, &fjump, &rough)?))
         },
     );
@@ -108,22 +108,16 @@ pub fn register(r: &mut Registry) {
          variance, covariance exp(-r^2 / (2 correlation^2)), correlation above 0 and at most \
          1e150); the four-argument form is a vectorfield, divergence-free when divfree is true",
         |interp, a| {
-            let Value::Domain(d) = a.get(0)? else {
+            let Value::Domain(d) = a.get("d")? else {
                 return Err(Failure::new("gaussiannoise needs a domain"));
             };
-            let seed = match a.opt_int(2)? {
-                Some(s) if (0..=u32::MAX as i64).contains(&s) => s as u32,
-                Some(s) => {
-                    return Err(Failure::new(format!(
-                        "a seed is a whole number from 0 to {}, found {s}",
-                        u32::MAX
-                    )));
-                }
+            let seed = match a.opt_int_in("seed", 0..=u32::MAX as i64)? {
+                Some(s) => s as u32,
                 None => interp.noise_seed,
             };
             let vector = a.form == 1;
-            let divfree = matches!(a.opt(3), Some(Value::Bool(true)));
-            let correlation = a.float(1)?;
+            let divfree = matches!(a.opt("divfree"), Some(Value::Bool(true)));
+            let correlation = a.float("correlation")?;
             let field = |seed: u32, divfree: bool| {
                 crate::grid::fft::gaussian_random_field(d, correlation, seed, divfree)
             };
@@ -164,19 +158,8 @@ pub fn register(r: &mut Registry) {
 
 /// A noise kernel at `x * frequency`, with the script's seed unless one is given.
 fn base_noise(interp: &Interpreter, a: &Args, kind: NoiseKind) -> Outcome<Field> {
-    let frequency = a.opt_float(0)?.unwrap_or(1.0);
-    if !(frequency.is_finite() && frequency > 0.0) {
-        return Err(Failure::new(format!(
-            "noise frequency must be positive, found {frequency}"
-        )));
-    }
-    let seed = match a.opt_int(1)? {
-        Some(s) if !(0..=u32::MAX as i64).contains(&s) => {
-            return Err(Failure::new(format!(
-                "a seed is a whole number from 0 to {}, found {s}",
-                u32::MAX
-            )));
-        }
+    let frequency = a.opt_positive_float("frequency")?.unwrap_or(1.0);
+    let seed = match a.opt_int_in("seed", 0..=u32::MAX as i64)? {
         Some(s) => s as u32,
         None => interp.noise_seed,
     };
@@ -219,8 +202,7 @@ fn levelsets(r: &mut Registry) {
         &["sphere(vector center, float radius) -> scalarfield"],
         "signed distance to a sphere, positive inside",
         |_, a| {
-            let (c, radius) = (a.get(0)?.as_vector()?, a.float(1)?);
-            positive("sphere radius", radius)?;
+            let (c, radius) = (a.get("center")?.as_vector()?, a.positive_float("radius")?);
             Ok(Value::Field(sphere(c, radius)?))
         },
     );
@@ -229,7 +211,10 @@ fn levelsets(r: &mut Registry) {
         &["box(vector center, vector halfsize) -> scalarfield"],
         "signed distance to an axis-aligned box, positive inside",
         |_, a| {
-            let (c, h) = (a.get(0)?.as_vector()?, a.get(1)?.as_vector()?);
+            let (c, h) = (
+                a.get("center")?.as_vector()?,
+                a.get("halfsize")?.as_vector()?,
+            );
             if !(h.is_finite() && h.min_element() > 0.0) {
                 return Err(Failure::new(format!(
                     "box half sizes must be positive, found {h}"
@@ -256,9 +241,11 @@ fn levelsets(r: &mut Registry) {
         &["torus(vector center, float major, float minor) -> scalarfield"],
         "signed distance to a torus around the y axis through center, positive inside",
         |_, a| {
-            let (c, big, small) = (a.get(0)?.as_vector()?, a.float(1)?, a.float(2)?);
-            positive("torus major radius", big)?;
-            positive("torus minor radius", small)?;
+            let (c, big, small) = (
+                a.get("center")?.as_vector()?,
+                a.positive_float("major")?,
+                a.positive_float("minor")?,
+            );
             let p = local(c)?;
             let (x, y, z) = (p.component(0)?, p.component(1)?, p.component(2)?);
             let ring = x
@@ -276,13 +263,11 @@ fn levelsets(r: &mut Registry) {
         "a capped cylinder around axis through center, positive inside (exact away from the rims)",
         |_, a| {
             let (c, axis, radius, height) = (
-                a.get(0)?.as_vector()?,
-                a.get(1)?.as_vector()?,
-                a.float(2)?,
-                a.float(3)?,
+                a.get("center")?.as_vector()?,
+                a.get("axis")?.as_vector()?,
+                a.positive_float("radius")?,
+                a.positive_float("height")?,
             );
-            positive("cylinder radius", radius)?;
-            positive("cylinder height", height)?;
             let (along, radial) = axial(c, axis)?;
             let side = Field::constant_scalar(radius).sub(&radial)?;
             let caps = Field::constant_scalar(height / 2.0).sub(&along.math(MathFn::Abs)?)?;
@@ -294,11 +279,10 @@ fn levelsets(r: &mut Registry) {
         &["cone(vector apex, vector axis, float angle, float height) -> scalarfield"],
         "a cone opening from apex along axis with half-angle angle (radians), cut at height; positive inside (exact away from the rims)",
         |_, a| {
-            let (apex, axis, angle, height) = (a.get(0)?.as_vector()?, a.get(1)?.as_vector()?, a.float(2)?, a.float(3)?);
+            let (apex, axis, angle, height) = (a.get("apex")?.as_vector()?, a.get("axis")?.as_vector()?, a.float("angle")?, a.positive_float("height")?);
             if !(angle > 0.0 && angle < std::f64::consts::FRAC_PI_2) {
                 return Err(Failure::new(format!("cone half-angle must be between 0 and pi/2 radians, found {angle}")));
             }
-            positive("cone height", height)?;
             let (along, radial) = axial(apex, axis)?;
             // Distance to the infinite cone's surface, measured across it.
             let side = along.mul(&Field::constant_scalar(angle.sin()))?.sub(&radial.mul(&Field::constant_scalar(angle.cos()))?)?;
@@ -311,7 +295,7 @@ fn levelsets(r: &mut Registry) {
         &["plane(vector point, vector normal) -> scalarfield"],
         "signed distance to a plane, positive on the side away from the normal",
         |_, a| {
-            let (p, n) = (a.get(0)?.as_vector()?, a.get(1)?.as_vector()?);
+            let (p, n) = (a.get("point")?.as_vector()?, a.get("normal")?.as_vector()?);
             if !(n.is_finite() && n.length() > 0.0) {
                 return Err(Failure::new("a plane needs a non-zero normal"));
             }
@@ -327,8 +311,8 @@ fn levelsets(r: &mut Registry) {
         "inside either: max(a, b)",
         |_, a| {
             Ok(Value::Field(Field::max(
-                &a.get(0)?.as_field()?,
-                &a.get(1)?.as_field()?,
+                &a.get("a")?.as_field()?,
+                &a.get("b")?.as_field()?,
             )?))
         },
     );
@@ -338,8 +322,8 @@ fn levelsets(r: &mut Registry) {
         "inside both: min(a, b)",
         |_, a| {
             Ok(Value::Field(Field::min(
-                &a.get(0)?.as_field()?,
-                &a.get(1)?.as_field()?,
+                &a.get("a")?.as_field()?,
+                &a.get("b")?.as_field()?,
             )?))
         },
     );
@@ -349,8 +333,8 @@ fn levelsets(r: &mut Registry) {
         "inside a but not b: min(a, -b)",
         |_, a| {
             Ok(Value::Field(Field::min(
-                &a.get(0)?.as_field()?,
-                &a.get(1)?.as_field()?.neg(),
+                &a.get("a")?.as_field()?,
+                &a.get("b")?.as_field()?.neg(),
             )?))
         },
     );
@@ -359,9 +343,8 @@ fn levelsets(r: &mut Registry) {
         &["softunion(scalarfield a, scalarfield b, float r) -> scalarfield"],
         "union blended over a band of width r: max(a, b) + e^2/(4r), e = max(r - |a - b|, 0)",
         |_, a| {
-            let radius = a.float(2)?;
-            positive("softunion radius", radius)?;
-            let (x, y) = (a.get(0)?.as_field()?, a.get(1)?.as_field()?);
+            let radius = a.positive_float("r")?;
+            let (x, y) = (a.get("a")?.as_field()?, a.get("b")?.as_field()?);
             let e = Field::max(
                 &Field::constant_scalar(radius).sub(&x.sub(&y)?.math(MathFn::Abs)?)?,
                 &Field::constant_scalar(0.0),
@@ -375,11 +358,11 @@ fn levelsets(r: &mut Registry) {
         &["levelsetsurface(scalarfield ls, int iterations) -> vectorfield"],
         "the map moving each point onto the zero set: x <- x - ls grad(ls) / |grad(ls)|^2, repeated",
         |_, a| {
-            let iterations = a.int(1)?;
+            let iterations = a.int("iterations")?;
             if !(0..=64).contains(&iterations) {
                 return Err(Failure::new(format!("levelsetsurface takes 0 to 64 iterations, found {iterations}")));
             }
-            Ok(Value::Field(levelset_surface(&a.get(0)?.as_field()?, iterations as usize)?))
+            Ok(Value::Field(levelset_surface(&a.get("ls")?.as_field()?, iterations as usize)?))
         },
     );
 }
@@ -416,12 +399,4 @@ fn axial(c: DVec3, axis: DVec3) -> Outcome<(Field, Field)> {
     let along = p.mul(&Field::constant_vector(n))?;
     let radial = p.sub(&Field::constant_vector(n).mul(&along)?)?.length()?;
     Ok((along, radial))
-}
-
-fn positive(what: &str, v: f64) -> Outcome<()> {
-    if v.is_finite() && v > 0.0 {
-        Ok(())
-    } else {
-        Err(Failure::new(format!("{what} must be positive, found {v}")))
-    }
 }

@@ -43,7 +43,7 @@ pub fn register(r: &mut Registry) {
         "for each nacelle iteration, how many of the shape's vertices (or the domain's cell \
          centres) had no real root (1 + 2ΔΓ < 0) and were moved to the parabola's vertex",
         |interp, a| {
-            let points = match a.get(3)? {
+            let points = match a.one_of(&["points", "cells"])? {
                 Value::Shape(mesh) => mesh.positions.clone(),
                 Value::Domain(d) => cell_centres(d)?,
                 other => {
@@ -81,13 +81,7 @@ fn steps(interp: &Interpreter, a: &Args) -> Outcome<Vec<Step>> {
         ))
         .with_help("use at most 64 iterations (the chapter needs 1 to 5)"));
     }
-    // Only some forms have a cache parameter.
-    let given = a
-        .signature
-        .param_index("cache")
-        .and_then(|i| a.values.get(i))
-        .and_then(|v| v.as_ref());
-    let cache = match given {
+    let cache = match a.opt("cache") {
         Some(Value::Domain(d)) => {
             if d.resolution.is_none() {
                 return Err(Failure::new("nacelle's cache domain needs a cell size"));

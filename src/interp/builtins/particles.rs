@@ -410,15 +410,7 @@ fn flamewisp(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
     if !amount.is_finite() {
         return Err(Failure::new("amount must be finite"));
     }
-    let iterations = match a.opt_int("iterations")? {
-        None => 1000,
-        Some(n) if n > 0 => n as usize,
-        Some(n) => {
-            return Err(Failure::new(format!(
-                "iterations must be positive, found {n}"
-            )));
-        }
-    };
+    let iterations = a.opt_positive_int("iterations")?.unwrap_or(1000);
     let skip = match a.opt_int("skip")? {
         None => 20,
         Some(n) if n >= 0 => n as usize,

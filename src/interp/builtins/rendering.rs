@@ -36,30 +36,6 @@ macro_rules! render_form {
     };
 }
 
-const COLOR: usize = 2;
-const EMISSION: usize = 3;
-const CAMERA: usize = 4;
-const LIGHTS: usize = 5;
-const KAPPA: usize = 6;
-const STEP: usize = 7;
-const WIDTH: usize = 8;
-const HEIGHT: usize = 9;
-const SPP: usize = 10;
-const SEED: usize = 11;
-const BOUNDS: usize = 12;
-const THRESHOLD: usize = 13;
-const PHASE: usize = 14;
-const PHASE2: usize = 15;
-const HOLDOUT: usize = 16;
-const AMBIENT: usize = 17;
-const MULTISCATTER: usize = 18;
-const ADAPTIVE: usize = 19;
-const AOVS: usize = 20;
-const SHADOWS: usize = 21;
-const POWDER: usize = 22;
-const SHADOW_CELL: usize = 23;
-const ALBEDO: usize = 24;
-
 pub fn register(r: &mut Registry) {
     r.add(
         "rendering",
@@ -70,12 +46,12 @@ pub fn register(r: &mut Registry) {
         "a camera at eye looking at lookat; fov is the horizontal field of view in degrees; \
          aspect fixes width/height, ortho = view width makes it orthographic",
         |_, a| {
-            let (eye, lookat, up) = (a.get(0)?.as_vector()?, a.get(1)?.as_vector()?, a.get(2)?.as_vector()?);
-            let mut camera = Camera::new(eye, lookat, up, a.float(3)?)?;
-            if let Some(aspect) = opt_float(&a, 4)? {
+            let (eye, lookat, up) = (a.get("eye")?.as_vector()?, a.get("lookat")?.as_vector()?, a.get("up")?.as_vector()?);
+            let mut camera = Camera::new(eye, lookat, up, a.float("fov")?)?;
+            if let Some(aspect) = a.opt_float("aspect")? {
                 camera = camera.with_aspect(aspect)?;
             }
-            if let Some(width) = opt_float(&a, 5)? {
+            if let Some(width) = a.opt_float("ortho")? {
                 camera = camera.orthographic(width)?;
             }
             Ok(Value::Camera(Rc::new(camera)))
@@ -88,8 +64,8 @@ pub fn register(r: &mut Registry) {
          defaults to white; name is what its AOV channels are called (default light0, light1, ... \
          by its place in the render's lights)",
         |_, a| {
-            let color = opt_vector(&a, 1)?.unwrap_or(DVec3::ONE);
-            named(Light::distant(a.get(0)?.as_vector()?, color)?, &a)
+            let color = opt_vector(&a, "color")?.unwrap_or(DVec3::ONE);
+            named(Light::distant(a.get("direction")?.as_vector()?, color)?, &a)
         },
     );
     r.add(
@@ -98,8 +74,8 @@ pub fn register(r: &mut Registry) {
         "light from a point, falling off as 1/r^2 (color is the strength at distance 1); name \
          as for distantlight",
         |_, a| {
-            let color = opt_vector(&a, 1)?.unwrap_or(DVec3::ONE);
-            named(Light::point(a.get(0)?.as_vector()?, color)?, &a)
+            let color = opt_vector(&a, "color")?.unwrap_or(DVec3::ONE);
+            named(Light::point(a.get("position")?.as_vector()?, color)?, &a)
         },
     );
     r.add(
@@ -138,13 +114,13 @@ pub fn register(r: &mut Registry) {
         &["transmissivity(scalarfield density, light l, domain d, float kappa) -> scalarfield"],
         "the fraction of l's light reaching each point through density (1 outside d), sampled at d's cells",
         |_, a| {
-            let density = CompiledField::prepared(&a.get(0)?.as_field()?)?;
-            let Value::Light(light) = a.get(1)? else { return Err(Failure::new("expected a light")) };
-            let Value::Domain(domain) = a.get(2)? else { return Err(Failure::new("expected a domain")) };
+            let density = CompiledField::prepared(&a.get("density")?.as_field()?)?;
+            let Value::Light(light) = a.get("l")? else { return Err(Failure::new("expected a light")) };
+            let Value::Domain(domain) = a.get("d")? else { return Err(Failure::new("expected a domain")) };
             if domain.resolution.is_none() {
                 return Err(Failure::new("transmissivity needs a domain with a cell size"));
             }
-            let values = render::transmittance::transmissivity(&density, light, domain, a.float(3)?, TransmissivityMethod::Auto)?;
+            let values = render::transmittance::transmissivity(&density, light, domain, a.float("kappa")?, TransmissivityMethod::Auto)?;
             let cache = Cache::from_dense((**domain).clone(), 1, vec![values], vec![1.0])?
                 .with_label("transmissivity".to_string())
                 .with_profile("transmissivity");
@@ -163,49 +139,33 @@ fn named(light: Light, a: &Args) -> Outcome<Value> {
     Ok(Value::Light(Rc::new(light)))
 }
 
-fn opt_float(a: &Args, i: usize) -> Outcome<Option<f64>> {
-    a.opt(i).map(|v| v.as_float()).transpose()
+fn opt_vector(a: &Args, key: &str) -> Outcome<Option<DVec3>> {
+    a.opt(key).map(|v| v.as_vector()).transpose()
 }
 
-fn opt_vector(a: &Args, i: usize) -> Outcome<Option<DVec3>> {
-    a.opt(i).map(|v| v.as_vector()).transpose()
-}
-
-fn opt_field(a: &Args, i: usize) -> Outcome<Option<CompiledField>> {
-    Ok(match a.opt(i) {
+fn opt_field(a: &Args, key: &str) -> Outcome<Option<CompiledField>> {
+    Ok(match a.opt(key) {
         Some(v) => Some(CompiledField::prepared(&v.as_field()?)?),
         None => None,
     })
 }
 
-fn count(a: &Args, i: usize, what: &str, default: usize) -> Outcome<usize> {
-    match a.opt(i) {
-        None => Ok(default),
-        Some(v) => {
-            let n = v.as_int()?;
-            usize::try_from(n).ok().filter(|&n| n > 0).ok_or_else(|| {
-                Failure::new(format!("{what} must be a positive whole number, found {n}"))
-            })
-        }
-    }
-}
-
 fn run_render(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
-    let path = interp.files.writing(a.string(0)?)?;
-    let density = CompiledField::prepared(&a.get(1)?.as_field()?)?;
+    let path = interp.files.writing(a.string("path")?)?;
+    let density = CompiledField::prepared(&a.get("density")?.as_field()?)?;
     let (color, emission, holdout) = (
-        opt_field(&a, COLOR)?,
-        opt_field(&a, EMISSION)?,
-        opt_field(&a, HOLDOUT)?,
+        opt_field(&a, "color")?,
+        opt_field(&a, "emission")?,
+        opt_field(&a, "holdout")?,
     );
-    let camera = match a.opt(CAMERA) {
+    let camera = match a.opt("camera") {
         Some(Value::Camera(c)) => (**c).clone(),
         _ => {
             return Err(Failure::new("render needs a camera")
                 .with_help("pass camera = camera(eye, lookat, up, fov)"));
         }
     };
-    let lights: Vec<Light> = match a.opt(LIGHTS) {
+    let lights: Vec<Light> = match a.opt("lights") {
         Some(Value::Array(items, _)) => items
             .iter()
             .map(|v| match v {
@@ -219,38 +179,38 @@ fn run_render(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
         _ => Vec::new(),
     };
     let mut settings = RenderSettings::default();
-    settings.width = count(&a, WIDTH, "width", settings.width)?;
-    settings.height = count(&a, HEIGHT, "height", settings.height)?;
-    settings.spp = count(&a, SPP, "spp", settings.spp as usize)? as u32;
-    if let Some(seed) = a.opt(SEED) {
+    settings.width = a.opt_positive_int("width")?.unwrap_or(settings.width);
+    settings.height = a.opt_positive_int("height")?.unwrap_or(settings.height);
+    settings.spp = a.opt_positive_int("spp")?.unwrap_or(settings.spp as usize) as u32;
+    if let Some(seed) = a.opt("seed") {
         settings.seed = seed.as_int()? as u64;
     }
-    match a.opt(KAPPA) {
+    match a.opt("kappa") {
         Some(Value::Vector(k)) => settings.kappa = *k,
         Some(v) => settings.kappa = DVec3::splat(v.as_float()?),
         None => {}
     }
-    settings.step = opt_float(&a, STEP)?;
-    if let Some(t) = opt_float(&a, THRESHOLD)? {
+    settings.step = a.opt_float("step")?;
+    if let Some(t) = a.opt_float("threshold")? {
         settings.threshold = t;
     }
-    if let Some(g) = opt_float(&a, PHASE)? {
+    if let Some(g) = a.opt_float("phase")? {
         settings.phase = Phase::HenyeyGreenstein { g };
     }
-    if let Some(p) = opt_vector(&a, PHASE2)? {
+    if let Some(p) = opt_vector(&a, "phase2")? {
         settings.phase = Phase::TwoLobe {
             g1: p.x,
             g2: p.y,
             weight: p.z,
         };
     }
-    if let Some(Value::Domain(d)) = a.opt(BOUNDS) {
+    if let Some(Value::Domain(d)) = a.opt("bounds") {
         settings.bounds = Some(d.bounds());
     }
-    if let Some(ambient) = opt_vector(&a, AMBIENT)? {
+    if let Some(ambient) = opt_vector(&a, "ambient")? {
         settings.ambient = ambient;
     }
-    if let Some(octaves) = a.opt(MULTISCATTER) {
+    if let Some(octaves) = a.opt("multiscatter") {
         let octaves = octaves.as_int()?;
         if !(1..=16).contains(&octaves) {
             return Err(Failure::new(format!(
@@ -262,18 +222,18 @@ fn run_render(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
             ..MultiScatter::default()
         });
     }
-    if let Some(p) = opt_float(&a, POWDER)? {
+    if let Some(p) = a.opt_float("powder")? {
         settings.powder = Some(p);
     }
-    settings.albedo = opt_float(&a, ALBEDO)?;
-    if let Some(Value::Bool(true)) = a.opt(ADAPTIVE) {
+    settings.albedo = a.opt_float("albedo")?;
+    if let Some(Value::Bool(true)) = a.opt("adaptive") {
         let step = settings.step.ok_or_else(|| {
             Failure::new("adaptive stepping needs a step")
                 .with_help("pass step = the longest step to take")
         })?;
         settings.adaptive = Some(Adaptive::around(step));
     }
-    if let Some(Value::Array(names, _)) = a.opt(AOVS) {
+    if let Some(Value::Array(names, _)) = a.opt("aovs") {
         let mut aovs = Aovs::default();
         for name in names.iter() {
             match name.as_str()? {
@@ -290,7 +250,7 @@ fn run_render(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
         }
         settings.aovs = aovs;
     }
-    if let Some(mode) = a.opt(SHADOWS) {
+    if let Some(mode) = a.opt("shadows") {
         settings.shadows = match mode.as_str()? {
             "cache" => Shadows::default(),
             "march" => Shadows::March,
@@ -305,12 +265,7 @@ fn run_render(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
             }
         };
     }
-    if let Some(cell) = opt_float(&a, SHADOW_CELL)? {
-        if !(cell.is_finite() && cell > 0.0) {
-            return Err(Failure::new(format!(
-                "shadowcell must be a positive length, found {cell}"
-            )));
-        }
+    if let Some(cell) = a.opt_positive_float("shadowcell")? {
         if settings.shadows == Shadows::March {
             return Err(Failure::new(
                 "shadowcell sets the light cache; it has no meaning with shadows = \"march\"",

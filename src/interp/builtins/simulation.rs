@@ -21,8 +21,8 @@ pub fn register(r: &mut Registry) {
          the central-difference divergence of the result is zero; solved only when something \
          reads it, and grad/div/curl of it use central differences",
         |interp, a| {
-            let velocity = a.get(0)?.as_field()?;
-            let Value::Domain(domain) = a.get(1)? else {
+            let velocity = a.get("u")?.as_field()?;
+            let Value::Domain(domain) = a.get("d")? else {
                 return Err(Failure::new("fftdivfree needs a domain"));
             };
             let label = format!("fftdivfree at {}", interp.location(interp.call_span));
