@@ -24,6 +24,10 @@ use glam::DVec3;
 use std::sync::Arc;
 use std::time::Instant;
 
+#[path = "common/cpu.rs"]
+mod cpu;
+use cpu::cpu_seconds;
+
 const CELLS: [usize; 3] = [256, 32, 256];
 
 fn jitter(i: usize, salt: f64) -> f64 {
@@ -69,20 +73,6 @@ fn probability_fields(r: &Field) -> CompiledField {
         )
         .unwrap();
     CompiledField::prepared(&Field::vector_from(&hum, &act, &ext).unwrap()).unwrap()
-}
-
-/// CPU seconds used so far by all of this process's live threads, from the per-thread
-/// scheduler statistics (nanoseconds); zero where they are not available. Steadier than wall
-/// time when other work shares the machine.
-fn cpu_seconds() -> f64 {
-    let Ok(tasks) = std::fs::read_dir("/proc/self/task") else {
-        return 0.0;
-    };
-    tasks
-        .filter_map(|t| std::fs::read_to_string(t.ok()?.path().join("schedstat")).ok())
-        .filter_map(|s| s.split_whitespace().next()?.parse::<f64>().ok())
-        .sum::<f64>()
-        * 1e-9
 }
 
 /// Timing of a stage: median wall seconds of the runs, and CPU seconds per run (all threads).

@@ -27,6 +27,10 @@ use rayon::prelude::*;
 use std::sync::Arc;
 use std::time::Instant;
 
+#[path = "common/cpu.rs"]
+mod cpu;
+use cpu::cpu_seconds;
+
 /// Points per timed evaluation (a multiple of `BLOCK`).
 const POINTS: usize = 1 << 20;
 const RUNS: usize = 7;
@@ -180,20 +184,6 @@ fn pool(threads: usize) -> rayon::ThreadPool {
         .num_threads(threads)
         .build()
         .expect("a thread pool")
-}
-
-/// CPU seconds used so far by all of this process's live threads, from the per-thread
-/// scheduler statistics (nanoseconds); zero where they are not available. Steadier than wall
-/// time when other work shares the machine.
-fn cpu_seconds() -> f64 {
-    let Ok(tasks) = std::fs::read_dir("/proc/self/task") else {
-        return 0.0;
-    };
-    tasks
-        .filter_map(|t| std::fs::read_to_string(t.ok()?.path().join("schedstat")).ok())
-        .filter_map(|s| s.split_whitespace().next()?.parse::<f64>().ok())
-        .sum::<f64>()
-        * 1e-9
 }
 
 /// Wall and CPU seconds of one run: the median wall time of `runs` runs after one warm-up run,
