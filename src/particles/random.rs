@@ -50,9 +50,9 @@ impl Stream {
     pub fn pick(&mut self, cumulative: &[f64]) -> usize {
         let total = cumulative.last().copied().unwrap_or(0.0);
         let u = self.uniform() * total;
-        cumulative
-            .iter()
-            .position(|&c| u < c)
-            .unwrap_or(cumulative.len().saturating_sub(1))
+        // The first entry above u, counted without branches (the chaos game's map choice is
+        // unpredictable): the entries at most u, as `cumulative` ascends.
+        let below = cumulative.iter().map(|&c| (c <= u) as usize).sum::<usize>();
+        below.min(cumulative.len().saturating_sub(1))
     }
 }
