@@ -10,7 +10,8 @@
 //! The flame is three xforms — linear, swirl and spherical with 2D pre-transforms — so both
 //! programs evaluate the same maps. felt's z coordinate is carried along (always 0).
 //!
-//! Run with `cargo bench --bench particles` (`FELT_BENCH_BIG=0` skips the 80-million run).
+//! Run with `cargo bench --bench particles` (`FELT_BENCH_BIG=0` skips the 80-million run;
+//! `FELT_BENCH_ONLY=rates`, `end` or `flam3` runs one of the three parts, for profiling).
 
 use felt::field::{CompiledField, Field};
 use felt::grid::domain::Domain;
@@ -314,18 +315,26 @@ fn against_flam3() {
 }
 
 fn main() {
-    rates();
-    println!(
-        "## End to end (generate, splat count and colour into 768×768×192 cells, render 1280×720)\n"
-    );
-    println!(
-        "| dots | generate (s) | splat (s) | render (s) | total wall (s) | total CPU (s) | peak memory (MiB) |"
-    );
-    println!("|---|---|---|---|---|---|---|");
-    end_to_end(10_000_000);
-    if std::env::var("FELT_BENCH_BIG").as_deref() != Ok("0") {
-        end_to_end(80_000_000);
+    let only = std::env::var("FELT_BENCH_ONLY").ok();
+    let part = |name: &str| only.as_deref().is_none_or(|o| o == name);
+    if part("rates") {
+        rates();
     }
-    println!();
-    against_flam3();
+    if part("end") {
+        println!(
+            "## End to end (generate, splat count and colour into 768×768×192 cells, render 1280×720)\n"
+        );
+        println!(
+            "| dots | generate (s) | splat (s) | render (s) | total wall (s) | total CPU (s) | peak memory (MiB) |"
+        );
+        println!("|---|---|---|---|---|---|---|");
+        end_to_end(10_000_000);
+        if std::env::var("FELT_BENCH_BIG").as_deref() != Ok("0") {
+            end_to_end(80_000_000);
+        }
+        println!();
+    }
+    if part("flam3") {
+        against_flam3();
+    }
 }

@@ -422,6 +422,22 @@ impl Cache {
         Some(&self.brick_values(index)[at..at + self.width])
     }
 
+    /// The values of the brick at brick coordinates `brick` in brick order (see
+    /// [`SparseBuilder::set_brick`]), filling it if needed; a uniform brick reads as background.
+    pub fn brick_values_at(&self, brick: [usize; 3]) -> Option<&[f32]> {
+        if (0..3).any(|a| brick[a] >= self.shape.bricks[a]) {
+            return None;
+        }
+        Some(self.brick_values(self.shape.brick_index(brick)))
+    }
+
+    /// Whether the brick at brick coordinates `brick` holds values (is not uniform background),
+    /// filling it if needed.
+    pub fn brick_stored(&self, brick: [usize; 3]) -> bool {
+        (0..3).all(|a| brick[a] < self.shape.bricks[a])
+            && self.brick(self.shape.brick_index(brick)).values.is_some()
+    }
+
     /// Bricks that hold values (not uniform background), in brick order; fills all first.
     pub fn stored_bricks(&self) -> impl Iterator<Item = BrickView<'_>> {
         self.fill_all();

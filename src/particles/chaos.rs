@@ -14,17 +14,21 @@
 //! instead of point by point. Every chain has its own random stream (seed, guide, chain), and
 //! blocks are fixed by the chain numbering, so the dots are the same for any thread count.
 
-use super::evaluate::{at_points, split};
+use super::evaluate::split;
 use super::guide::Guide;
 use super::random::Stream;
 use super::{Particles, Values};
 use crate::failure::{Failure, Outcome};
-use crate::sample::FieldSampler;
+use crate::sample::{BLOCK, BlockEval, FieldSampler};
 use glam::DVec3;
 use rayon::prelude::*;
 
 /// Chains advanced together.
 const LANES: usize = 1024;
+/// Dots a lane keeps before writing them to its chain's run of the output: one lane's dots
+/// are `iterations` apart from the next lane's, so writing each dot straight away touches a
+/// page per lane per step.
+const STAGE: usize = 16;
 /// flam3's bad value: a coordinate beyond this restarts the chain.
 const BAD: f64 = 1e10;
 
@@ -136,7 +140,82 @@ pub fn generate(
     Ok((set, Report { restarts }))
 }
 
+/// Three coordinate arrays indexed by lane.
+type Soa = [Vec<f64>; 3];
+
+/// Reused buffers for evaluating a field at some of the lanes.
+struct Gather {
+    xs: Vec<f64>,
+    ys: Vec<f64>,
+    zs: Vec<f64>,
+    values: Vec<f32>,
+}
+
+impl Gather {
+    fn new() -> Gather {
+        Gather {
+            xs: Vec::with_capacity(BLOCK),
+            ys: Vec::with_capacity(BLOCK),
+            zs: Vec::with_capacity(BLOCK),
+            values: vec![0.0; BLOCK * 3],
+        }
+    }
+
+    /// The vectorfield `eval` at the points `at[·][l] (+ offset)` of the lanes `lanes`, into
+    /// `out[·][l]`. The lanes are evaluated in consecutive blocks of `BLOCK` in the order given
+    /// (as `at_points` would), so noise sees the same blocks.
+    fn eval(
+        &mut self,
+        eval: &mut dyn BlockEval,
+        lanes: &[u32],
+        at: &Soa,
+        offset: Option<[f64; 3]>,
+        out: &mut Soa,
+    ) {
+        let [ax, ay, az] = at;
+        for chunk in lanes.chunks(BLOCK) {
+            self.xs.clear();
+            self.ys.clear();
+            self.zs.clear();
+            match offset {
+                // No offset is not a zero offset: -0 + 0 is +0, and atan2 tells them apart.
+                None => {
+                    for &l in chunk {
+                        let l = l as usize;
+                        self.xs.push(ax[l]);
+                        self.ys.push(ay[l]);
+                        self.zs.push(az[l]);
+                    }
+                }
+                Some(o) => {
+                    for &l in chunk {
+                        let l = l as usize;
+                        self.xs.push(ax[l] + o[0]);
+                        self.ys.push(ay[l] + o[1]);
+                        self.zs.push(az[l] + o[2]);
+                    }
+                }
+            }
+            let n = chunk.len();
+            let values = &mut self.values[..n * 3];
+            eval.eval_f32(&self.xs, &self.ys, &self.zs, values);
+            let (vx, rest) = values.split_at(n);
+            let (vy, vz) = rest.split_at(n);
+            let [ox, oy, oz] = &mut *out;
+            for (i, &l) in chunk.iter().enumerate() {
+                let l = l as usize;
+                ox[l] = vx[i] as f64;
+                oy[l] = vy[i] as f64;
+                oz[l] = vz[i] as f64;
+            }
+        }
+    }
+}
+
 /// Runs one block's chains, writing its dots; returns the restarts.
+///
+/// Lane state is kept as structure of arrays and gathered straight into the evaluator's
+/// input blocks, map by map.
 fn run_block(
     guide: &Guide,
     block: &Block,
@@ -154,15 +233,25 @@ fn run_block(
             Stream::new(seed, id)
         })
         .collect();
-    let mut point: Vec<[f64; 3]> = streams.iter_mut().map(|s| s.cube()).collect();
-    let mut color: Vec<DVec3> = vec![DVec3::ZERO; lanes];
-    let mut fresh = vec![true; lanes];
-    let mut picked = vec![0usize; lanes];
-    let mut mapped: Vec<[f64; 3]> = vec![[0.0; 3]; lanes];
-    let mut gather: Vec<[f64; 3]> = Vec::with_capacity(lanes);
-    let mut members: Vec<Vec<usize>> = vec![Vec::new(); settings.maps.len()];
-    let mut values = Vec::new();
+    let soa = || -> Soa { [vec![0.0; lanes], vec![0.0; lanes], vec![0.0; lanes]] };
+    let mut point = soa();
+    for (l, s) in streams.iter_mut().enumerate() {
+        let p = s.cube();
+        for c in 0..3 {
+            point[c][l] = p[c];
+        }
+    }
+    let mut mapped = soa();
+    let mut shift = soa();
+    let mut tinted = soa();
+    let mut color = soa();
+    let mut staged_positions = vec![[0f32; 3]; lanes * STAGE];
+    let mut staged_colors = vec![[0f32; 3]; lanes * STAGE];
+    let mut picked = vec![0u32; lanes];
+    let mut members: Vec<Vec<u32>> = vec![Vec::with_capacity(lanes); settings.maps.len()];
+    let mut gather = Gather::new();
     let mut maps: Vec<_> = settings.maps.iter().map(|m| m.field.evaluator()).collect();
+    let map_colors: Vec<[f64; 3]> = settings.maps.iter().map(|m| m.color.to_array()).collect();
     let mut displace = settings.displace.map(|f| f.evaluator());
     let mut tint = settings.color.map(|f| f.evaluator());
     let offset = guide.offset.to_array();
@@ -171,7 +260,7 @@ fn run_block(
         .collect();
     let mut stamped = vec![0usize; lanes];
     let mut warm = vec![0usize; lanes];
-    let mut active: Vec<usize> = (0..lanes).collect();
+    let mut active: Vec<u32> = (0..lanes as u32).collect();
     let mut restarts = 0u64;
     let most_steps = 16 * (settings.skip + chain) + 1000;
     for _ in 0..most_steps {
@@ -182,81 +271,76 @@ fn run_block(
             m.clear();
         }
         for &l in &active {
-            picked[l] = streams[l].pick(cumulative);
-            members[picked[l]].push(l);
+            let j = streams[l as usize].pick(cumulative);
+            picked[l as usize] = j as u32;
+            members[j].push(l);
         }
         for (j, lanes_of_j) in members.iter().enumerate() {
-            if lanes_of_j.is_empty() {
-                continue;
-            }
-            gather.clear();
-            gather.extend(lanes_of_j.iter().map(|&l| point[l]));
-            at_points(maps[j].as_mut(), 3, &gather, &mut values);
-            for (n, &l) in lanes_of_j.iter().enumerate() {
-                mapped[l] = [0, 1, 2].map(|c| values[n * 3 + c] as f64);
+            if !lanes_of_j.is_empty() {
+                gather.eval(maps[j].as_mut(), lanes_of_j, &point, None, &mut mapped);
             }
         }
-        gather.clear();
-        gather.extend(active.iter().map(|&l| {
-            let q = mapped[l];
-            [q[0] + offset[0], q[1] + offset[1], q[2] + offset[2]]
-        }));
-        let mut shift: Vec<[f64; 3]> = Vec::new();
         if let Some(d) = displace.as_mut() {
-            at_points(d.as_mut(), 3, &gather, &mut values);
-            shift.extend(
-                (0..active.len())
-                    .map(|n| [0, 1, 2].map(|c| settings.amount * values[n * 3 + c] as f64)),
-            );
+            gather.eval(d.as_mut(), &active, &mapped, Some(offset), &mut shift);
         }
-        let noise_color = match tint.as_mut() {
-            Some(t) => {
-                at_points(t.as_mut(), 3, &gather, &mut values);
-                true
-            }
-            None => false,
-        };
-        for (n, &l) in active.iter().enumerate() {
-            point[l] = mapped[l];
-            if let Some(s) = shift.get(n) {
+        if let Some(t) = tint.as_mut() {
+            gather.eval(t.as_mut(), &active, &mapped, Some(offset), &mut tinted);
+        }
+        let displaced = displace.is_some();
+        let noise_color = tint.is_some();
+        for &l in &active {
+            let l = l as usize;
+            let ci = map_colors[picked[l] as usize];
+            let mut p = [mapped[0][l], mapped[1][l], mapped[2][l]];
+            if displaced {
                 for c in 0..3 {
-                    point[l][c] += s[c];
+                    p[c] += settings.amount * shift[c][l];
                 }
             }
-            let ci = settings.maps[picked[l]].color;
-            color[l] = if noise_color {
-                let v = DVec3::new(
-                    values[n * 3] as f64,
-                    values[n * 3 + 1] as f64,
-                    values[n * 3 + 2] as f64,
-                );
-                (v + ci) * 0.5
-            } else if fresh[l] {
-                ci
-            } else {
-                (color[l] + ci) * 0.5
-            };
-            fresh[l] = false;
-            let p = point[l];
-            let bad = !p.iter().all(|c| c.is_finite() && c.abs() <= BAD) || !color[l].is_finite();
+            let mut k = [0.0; 3];
+            for c in 0..3 {
+                k[c] = if noise_color {
+                    (tinted[c][l] + ci[c]) * 0.5
+                } else if warm[l] == 0 {
+                    // A fresh chain (just started or restarted) takes the map's colour.
+                    ci[c]
+                } else {
+                    (color[c][l] + ci[c]) * 0.5
+                };
+            }
+            let bad = !p.iter().all(|c| c.is_finite() && c.abs() <= BAD)
+                || !k.iter().all(|c| c.is_finite());
             if bad {
                 restarts += 1;
-                point[l] = streams[l].cube();
-                fresh[l] = true;
+                let q = streams[l].cube();
+                for c in 0..3 {
+                    point[c][l] = q[c];
+                    color[c][l] = k[c];
+                }
                 warm[l] = 0;
                 continue;
+            }
+            for c in 0..3 {
+                point[c][l] = p[c];
+                color[c][l] = k[c];
             }
             warm[l] += 1;
             if warm[l] <= settings.skip {
                 continue;
             }
-            let dot = l * chain + stamped[l];
             let world = guide.place(DVec3::from_array(p));
-            positions[dot] = world.to_array().map(|c| c as f32);
-            colors[dot] = color[l].to_array().map(|c| c as f32);
+            let n = stamped[l] % STAGE;
+            staged_positions[l * STAGE + n] = world.to_array().map(|c| c as f32);
+            staged_colors[l * STAGE + n] = k.map(|c| c as f32);
             stamped[l] += 1;
+            if n + 1 == STAGE || stamped[l] == quota[l] {
+                let to = l * chain + stamped[l] - (n + 1);
+                let from = l * STAGE;
+                positions[to..to + n + 1].copy_from_slice(&staged_positions[from..from + n + 1]);
+                colors[to..to + n + 1].copy_from_slice(&staged_colors[from..from + n + 1]);
+            }
         }
-        active.retain(|&l| stamped[l] < quota[l]);
+        active.retain(|&l| stamped[l as usize] < quota[l as usize]);
     }
     if active.is_empty() {
         return Ok(restarts);

@@ -21,8 +21,11 @@ pub mod pointfield;
 pub mod random;
 pub mod scatter;
 pub mod splat;
+mod splat_bins;
 pub mod wisp;
 
+#[cfg(test)]
+mod splat_tests;
 #[cfg(test)]
 mod tests;
 

@@ -31,7 +31,8 @@ impl Stream {
 
     /// Uniform in [0, 1), with 53 random bits.
     pub fn uniform(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+        // Through i64: the 53 bits fit, and a signed conversion is one instruction.
+        ((self.next_u64() >> 11) as i64) as f64 * (1.0 / (1u64 << 53) as f64)
     }
 
     /// Uniform in [-1, 1): the thesis's `2 prn - 1`.
@@ -49,9 +50,9 @@ impl Stream {
     pub fn pick(&mut self, cumulative: &[f64]) -> usize {
         let total = cumulative.last().copied().unwrap_or(0.0);
         let u = self.uniform() * total;
-        cumulative
-            .iter()
-            .position(|&c| u < c)
-            .unwrap_or(cumulative.len().saturating_sub(1))
+        // The first entry above u, counted without branches (the chaos game's map choice is
+        // unpredictable): the entries at most u, as `cumulative` ascends.
+        let below = cumulative.iter().map(|&c| (c <= u) as usize).sum::<usize>();
+        below.min(cumulative.len().saturating_sub(1))
     }
 }

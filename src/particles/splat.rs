@@ -1,26 +1,31 @@
 //! Splatting: accumulating a particle attribute into the cells of a cache (000 §2.2).
 //!
-//! The key decision: contributions are summed in 64-bit fixed point. Each contribution
-//! `value × weight` is scaled by one power of two chosen so that the sum of every |value|
-//! maps below 2⁶², rounded to an integer and added atomically to its cell. Integer addition
-//! is exact and order-free, so the grid is bit-identical for any thread count and any order of
-//! particles, no cell can overflow, and the total written differs from the total splatted only
-//! by the rounding of each contribution (at most 2⁻⁶³ of the total each: far below the
-//! `f32` rounding of the stored cells). Only the 8³ bricks a particle touches get storage.
+//! The key decision: contributions are summed in 64-bit fixed point. One power of two, chosen
+//! so that the sum of every particle's |value| maps into (2⁶¹, 2⁶²], scales each value; the
+//! scaled value is rounded to an integer `q` once, each stencil cell but the last gets its
+//! weight's share rounded to an integer, and the last cell gets what is left of `q`. Integer
+//! addition is exact and order-free, so the grid is bit-identical for any thread count and any
+//! order of particles, no cell can overflow, and the total written is exactly the sum of the
+//! particles' rounded values: it differs from the total splatted by at most half a unit
+//! (under 2⁻⁶² of the sum of |value|) per particle, far below the `f32` rounding of the cells.
+//!
+//! For speed, nothing is shared between threads while adding: particles are binned by the
+//! bricks their stencils reach and each brick is added up by one task (`splat_bins`), and
+//! bricks are handed to the cache whole. Only the 8³ bricks a stencil reaches get storage; the
+//! others keep the previous state's values.
 //!
 //! Kernels: `Trilinear` spreads a value over the eight cell centres around it with trilinear
 //! weights (summing to one); `Nearest` gives it all to the nearest cell centre. Weight that
 //! would fall beyond the outermost cell centres goes to the border cell, so every particle
-//! inside the domain deposits its whole value; particles outside the domain are not
-//! splatted and are counted.
+//! inside the domain deposits its whole value. The domain is half-open: a particle on its far
+//! faces, or anywhere outside, is not splatted and is counted.
 
 use super::Particles;
+use super::splat_bins::{Bins, Entry, bin};
 use crate::failure::{Failure, Outcome};
 use crate::grid::cache::{BRICK, BRICK_CELLS, Cache, SparseBuilder};
 use crate::grid::domain::Domain;
 use glam::{DMat3, DVec3};
-use rayon::prelude::*;
-use std::sync::atomic::{AtomicBool, AtomicI64, Ordering};
 
 /// How a value is spread over cells.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -57,14 +62,6 @@ impl Deposit<'_> {
             _ => 1,
         }
     }
-
-    fn value(&self, i: usize) -> [f64; 3] {
-        match self {
-            Deposit::One => [1.0, 0.0, 0.0],
-            Deposit::Float(v) => [v[i] as f64, 0.0, 0.0],
-            Deposit::Vector(v) => v[i].map(|c| c as f64),
-        }
-    }
 }
 
 /// What a splat did.
@@ -76,18 +73,33 @@ pub struct SplatReport {
     pub total: [f64; 3],
 }
 
-/// Particles per unit of parallel work: fixed, so the reductions do not depend on threads.
-const CHUNK: usize = 1 << 14;
+/// Edge of a brick's scratch accumulator: the brick and one layer of cells on every side,
+/// where the stencils of particles near its faces begin or end.
+pub(super) const PAD: usize = BRICK + 2;
+/// Cells in a brick's scratch accumulator.
+pub(super) const PADDED: usize = PAD * PAD * PAD;
 
-/// Maps world positions to continuous cell indices (cell centre `(i, j, k)` at `(i, j, k)`).
-struct Indexer {
+/// Where a particle lands: the first cell of its stencil, the step (0 or 1) to the second
+/// cell along each axis, and the fraction of the value that goes to the second.
+#[derive(Clone, Copy)]
+pub(super) struct Landing {
+    pub cell: [usize; 3],
+    pub step: [usize; 3],
+    frac: [f64; 3],
+}
+
+/// Maps world positions to continuous cell indices (cell `(i, j, k)` spans `[i, i + 1)`, its
+/// centre at `i + 0.5`).
+pub(super) struct Indexer {
     origin: DVec3,
     to_index: DMat3,
-    cells: [usize; 3],
+    pub cells: [usize; 3],
+    limit: [f64; 3],
+    kernel: Kernel,
 }
 
 impl Indexer {
-    fn new(domain: &Domain) -> Outcome<Indexer> {
+    fn new(domain: &Domain, kernel: Kernel) -> Outcome<Indexer> {
         let cells = domain
             .resolution
             .ok_or_else(|| Failure::new("splat needs a cache on a domain with cells"))?;
@@ -95,76 +107,124 @@ impl Indexer {
             origin: domain.origin,
             to_index: DMat3::from_diagonal(DVec3::ONE / domain.cell) * domain.rotation.transpose(),
             cells,
+            limit: cells.map(|n| n as f64),
+            kernel,
         })
     }
 
-    /// The cells and weights a particle at `p` writes, or `None` outside the domain.
-    fn stencil(
-        &self,
-        p: [f32; 3],
-        kernel: Kernel,
-        out: &mut [([usize; 3], f64); 8],
-    ) -> Option<usize> {
-        let local =
-            self.to_index * (DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) - self.origin);
-        let u = local.to_array();
+    /// Where a particle at `p` lands, or `None` outside the domain (NaN included). Floors are
+    /// truncations of positive numbers: without SSE4.1 `f64::floor` is a library call.
+    #[inline]
+    pub fn land(&self, p: [f32; 3]) -> Option<Landing> {
+        let u = (self.to_index * (DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) - self.origin))
+            .to_array();
+        let inside = (u[0] >= 0.0 && u[0] < self.limit[0])
+            & (u[1] >= 0.0 && u[1] < self.limit[1])
+            & (u[2] >= 0.0 && u[2] < self.limit[2]);
+        if !inside {
+            return None;
+        }
+        let mut landing = Landing {
+            cell: [0; 3],
+            step: [0; 3],
+            frac: [0.0; 3],
+        };
         for a in 0..3 {
-            if !(0.0..self.cells[a] as f64).contains(&u[a]) {
-                return None;
+            let last = self.cells[a] - 1;
+            match self.kernel {
+                // The nearest centre is that of the cell holding u: floor(u).
+                Kernel::Nearest => landing.cell[a] = (u[a] as usize).min(last),
+                // The stencil starts at the centre below u, floor(u - 0.5) = floor(u + 0.5) - 1;
+                // before the first centre or past the last, both weights go to the border cell.
+                Kernel::Trilinear => {
+                    let t = u[a] + 0.5;
+                    let above = t as usize;
+                    let first = above.saturating_sub(1).min(last);
+                    landing.cell[a] = first;
+                    landing.step[a] = above.min(last) - first;
+                    landing.frac[a] = t - above as f64;
+                }
             }
         }
-        let u = u.map(|c| c - 0.5);
-        match kernel {
-            Kernel::Nearest => {
-                let c = [0, 1, 2].map(|a| (u[a].round().max(0.0) as usize).min(self.cells[a] - 1));
-                out[0] = (c, 1.0);
-                Some(1)
+        Some(landing)
+    }
+}
+
+/// Rounds to the nearest integer, halves away from zero: a conversion, not a library call.
+#[inline]
+fn fixed(x: f64) -> i64 {
+    (x + 0.5f64.copysign(x)) as i64
+}
+
+/// Adds the binned particles `bin` (each with a stencil cell in the brick whose first cell is
+/// `first_cell`) into the brick's scratch accumulator `acc`, `W` components per cell. Each
+/// particle's shares are computed whole, the same in every brick it reaches, and only the
+/// padding catches the cells of other bricks.
+pub(super) fn accumulate<const W: usize>(
+    indexer: &Indexer,
+    bin: &[Entry<W>],
+    scale: f64,
+    first_cell: [usize; 3],
+    acc: &mut [i64],
+) {
+    for entry in bin {
+        let Some(l) = indexer.land(entry.position) else {
+            continue;
+        };
+        // One cell of padding below the brick: a stencil may start in the brick below.
+        let local = [0, 1, 2].map(|a| l.cell[a] + 1 - first_cell[a]);
+        let at = local[0] + PAD * (local[1] + PAD * local[2]);
+        let v = entry.value.map(|x| x as f64);
+        if indexer.kernel == Kernel::Nearest {
+            for c in 0..W {
+                acc[at * W + c] += fixed(v[c] * scale);
             }
-            Kernel::Trilinear => {
-                let mut lo = [0usize; 3];
-                let mut hi = [0usize; 3];
-                let mut f = [0.0f64; 3];
-                for a in 0..3 {
-                    let base = u[a].floor();
-                    f[a] = u[a] - base;
-                    let last = self.cells[a] as i64 - 1;
-                    lo[a] = (base as i64).clamp(0, last) as usize;
-                    hi[a] = (base as i64 + 1).clamp(0, last) as usize;
-                }
-                for (n, slot) in out.iter_mut().enumerate() {
-                    let pick = |a: usize| {
-                        if (n >> a) & 1 == 1 {
-                            (hi[a], f[a])
-                        } else {
-                            (lo[a], 1.0 - f[a])
-                        }
-                    };
-                    let (x, wx) = pick(0);
-                    let (y, wy) = pick(1);
-                    let (z, wz) = pick(2);
-                    *slot = ([x, y, z], wx * wy * wz);
-                }
-                Some(8)
+            continue;
+        }
+        let (sx, sy, sz) = (l.step[0], l.step[1] * PAD, l.step[2] * PAD * PAD);
+        let [fx, fy, fz] = l.frac;
+        let (gx, gy, gz) = (1.0 - fx, 1.0 - fy, 1.0 - fz);
+        let (lo_yz, hi_y, hi_z, hi_yz) = (gy * gz, fy * gz, gy * fz, fy * fz);
+        let weights = [
+            gx * lo_yz,
+            fx * lo_yz,
+            gx * hi_y,
+            fx * hi_y,
+            gx * hi_z,
+            fx * hi_z,
+            gx * hi_yz,
+        ];
+        let cells = [
+            at,
+            at + sx,
+            at + sy,
+            at + sx + sy,
+            at + sz,
+            at + sx + sz,
+            at + sy + sz,
+            at + sx + sy + sz,
+        ];
+        for c in 0..W {
+            let scaled = v[c] * scale;
+            let mut rest = fixed(scaled);
+            for (w, cell) in weights.iter().zip(cells) {
+                let q = fixed(scaled * w);
+                acc[cell * W + c] += q;
+                rest -= q;
             }
+            acc[cells[7] * W + c] += rest;
         }
     }
 }
 
-/// Brick table geometry.
-struct Bricks {
-    counts: [usize; 3],
-}
-
-impl Bricks {
-    fn index_of(&self, cell: [usize; 3]) -> (usize, usize) {
-        let b = cell.map(|c| c / BRICK);
-        let brick = b[0] + self.counts[0] * (b[1] + self.counts[1] * b[2]);
-        let local = cell[0] % BRICK + BRICK * (cell[1] % BRICK + BRICK * (cell[2] % BRICK));
-        (brick, local)
-    }
-
-    fn total(&self) -> usize {
-        self.counts.iter().product()
+/// The interior of a scratch accumulator, the brick's own cells in brick order.
+pub(super) fn interior<const W: usize>(acc: &[i64], out: &mut [i64]) {
+    for z in 0..BRICK {
+        for y in 0..BRICK {
+            let from = (1 + PAD * ((y + 1) + PAD * (z + 1))) * W;
+            let to = BRICK * (y + BRICK * z) * W;
+            out[to..to + BRICK * W].copy_from_slice(&acc[from..from + BRICK * W]);
+        }
     }
 }
 
@@ -186,133 +246,85 @@ pub fn splat(
             background.len()
         )));
     }
-    let indexer = Indexer::new(domain)?;
-    let bricks = Bricks {
-        counts: indexer.cells.map(|n| n.div_ceil(BRICK)),
-    };
-    let n = particles.len();
-    // Pass 1: which bricks are touched, how many particles are outside, the sums.
-    let touched: Vec<AtomicBool> = (0..bricks.total())
-        .map(|_| AtomicBool::new(false))
-        .collect();
-    let chunks: Vec<(u64, [f64; 3], f64)> = (0..n.div_ceil(CHUNK))
-        .into_par_iter()
-        .map(|c| {
-            let mut stencil = [([0usize; 3], 0.0); 8];
-            let (mut outside, mut total, mut magnitude) = (0u64, [0.0f64; 3], 0.0f64);
-            for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
-                let Some(k) = indexer.stencil(particles.positions[i], kernel, &mut stencil) else {
-                    outside += 1;
-                    continue;
-                };
-                for (cell, _) in &stencil[..k] {
-                    let flag = &touched[bricks.index_of(*cell).0];
-                    if !flag.load(Ordering::Relaxed) {
-                        flag.store(true, Ordering::Relaxed);
-                    }
-                }
-                let v = deposit.value(i);
-                for a in 0..width {
-                    total[a] += v[a];
-                    magnitude += v[a].abs();
-                }
-            }
-            (outside, total, magnitude)
-        })
-        .collect();
-    let mut report = SplatReport::default();
-    let mut magnitude = 0.0;
-    for (outside, total, m) in chunks {
-        report.outside += outside;
-        for a in 0..3 {
-            report.total[a] += total[a];
-        }
-        magnitude += m;
-    }
-    report.splatted = n as u64 - report.outside;
-    if !magnitude.is_finite() {
+    let indexer = Indexer::new(domain, kernel)?;
+    if let Some(old) = previous
+        && (old.width() != width || old.resolution() != indexer.cells)
+    {
         return Err(Failure::new(
-            "the splatted values add up to more than a float can hold",
+            "the cache splatted onto has another shape than the splat's domain",
         ));
     }
-    // The largest power of two that keeps the sum of every |value| below 2^62.
-    let scale = if magnitude > 0.0 {
-        (62.0 - magnitude.log2().ceil()).min(1000.0).exp2()
-    } else {
-        1.0
-    };
-    let touched_count = touched.iter().filter(|t| t.load(Ordering::Relaxed)).count();
-    let _accumulators = crate::budget::reserve(
-        (touched_count * BRICK_CELLS * width * 8) as f64,
-        "splat accumulators",
-    )?;
-    let sums: Vec<Option<Box<[AtomicI64]>>> = touched
-        .iter()
-        .map(|t| {
-            t.load(Ordering::Relaxed).then(|| {
-                (0..BRICK_CELLS * width)
-                    .map(|_| AtomicI64::new(0))
-                    .collect()
-            })
-        })
-        .collect();
-    // Pass 2: add each contribution in fixed point.
-    (0..n.div_ceil(CHUNK)).into_par_iter().for_each(|c| {
-        let mut stencil = [([0usize; 3], 0.0); 8];
-        for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
-            let Some(k) = indexer.stencil(particles.positions[i], kernel, &mut stencil) else {
-                continue;
-            };
-            let v = deposit.value(i);
-            for (cell, w) in &stencil[..k] {
-                let (brick, local) = bricks.index_of(*cell);
-                let Some(cells) = &sums[brick] else { continue };
-                for a in 0..width {
-                    let q = (v[a] * w * scale).round() as i64;
-                    if q != 0 {
-                        cells[local * width + a].fetch_add(q, Ordering::Relaxed);
+    let positions = &particles.positions;
+    match deposit {
+        Deposit::One => run::<1>(&indexer, positions, |_| [1.0], domain, background, previous),
+        Deposit::Float(v) => run::<1>(
+            &indexer,
+            positions,
+            |i| [v[i]],
+            domain,
+            background,
+            previous,
+        ),
+        Deposit::Vector(v) => run::<3>(&indexer, positions, |i| v[i], domain, background, previous),
+    }
+}
+
+fn run<const W: usize>(
+    indexer: &Indexer,
+    positions: &[[f32; 3]],
+    value: impl Fn(usize) -> [f32; W] + Sync,
+    domain: &Domain,
+    background: &[f64],
+    previous: Option<&Cache>,
+) -> Outcome<(Cache, SplatReport)> {
+    let counts = indexer.cells.map(|c| c.div_ceil(BRICK));
+    // A brick's new values: the earlier state's (or the background) plus the sums.
+    let finish = |b: usize, sums: &[i64], scale: f64| -> Box<[f32]> {
+        let inverse = 1.0 / scale;
+        let before = previous.and_then(|p| p.brick_values_at(brick_coords(b, counts)));
+        let mut out = vec![0f32; BRICK_CELLS * W].into_boxed_slice();
+        match before {
+            Some(v) => {
+                for ((o, &sum), &b) in out.iter_mut().zip(sums).zip(v) {
+                    *o = (b as f64 + sum as f64 * inverse) as f32;
+                }
+            }
+            None => {
+                for (o, sum) in out.chunks_exact_mut(W).zip(sums.chunks_exact(W)) {
+                    for c in 0..W {
+                        o[c] = (background[c] + sum[c] as f64 * inverse) as f32;
                     }
                 }
             }
         }
-    });
-    let mut builder = SparseBuilder::new(domain.clone(), width, background.to_vec())?;
+        out
+    };
+    let Bins { report, bricks } = bin(indexer, positions, &value, &finish)?;
+    let mut builder = SparseBuilder::new(domain.clone(), W, background.to_vec())?;
     if let Some(old) = previous {
-        for (cell, value) in old.cells() {
-            if !touched[bricks.index_of(cell).0].load(Ordering::Relaxed) {
-                builder.set(cell, value)?;
-            }
-        }
-    }
-    let cells = indexer.cells;
-    let mut value = vec![0f32; width];
-    for (brick, sum) in sums.iter().enumerate() {
-        let Some(sum) = sum else { continue };
-        let b = [
-            brick % bricks.counts[0],
-            (brick / bricks.counts[0]) % bricks.counts[1],
-            brick / (bricks.counts[0] * bricks.counts[1]),
-        ];
-        for local in 0..BRICK_CELLS {
-            let cell = [
-                b[0] * BRICK + local % BRICK,
-                b[1] * BRICK + (local / BRICK) % BRICK,
-                b[2] * BRICK + local / (BRICK * BRICK),
-            ];
-            if (0..3).any(|a| cell[a] >= cells[a]) {
+        // The bricks this splat does not reach keep the earlier state's values.
+        let mut reached = bricks.iter().map(|(b, _)| *b).peekable();
+        for b in 0..counts.iter().product() {
+            if reached.next_if_eq(&b).is_some() {
                 continue;
             }
-            let before: Vec<f64> =
-                match previous.and_then(|p| p.value_at_cell(cell[0], cell[1], cell[2])) {
-                    Some(v) => v.iter().map(|&x| x as f64).collect(),
-                    None => background.to_vec(),
-                };
-            for a in 0..width {
-                let added = sum[local * width + a].load(Ordering::Relaxed) as f64 / scale;
-                value[a] = (before[a] + added) as f32;
+            let at = brick_coords(b, counts);
+            if old.brick_stored(at) {
+                let kept = old.brick_values_at(at).unwrap_or_default();
+                builder.set_brick(at, kept.into())?;
             }
-            builder.set(cell, &value)?;
         }
     }
+    for (b, values) in bricks {
+        builder.set_brick(brick_coords(b, counts), values)?;
+    }
     Ok((builder.build(), report))
+}
+
+fn brick_coords(index: usize, counts: [usize; 3]) -> [usize; 3] {
+    [
+        index % counts[0],
+        (index / counts[0]) % counts[1],
+        index / (counts[0] * counts[1]),
+    ]
 }

@@ -75,6 +75,23 @@ impl SparseBuilder {
         Ok(())
     }
 
+    /// Sets the whole brick at brick coordinates `brick` from values in brick order (component
+    /// `c` of local cell `x + 8 (y + 8 z)` at `(x + 8 (y + 8 z)) × width + c`, the cells past a
+    /// partial brick's far faces ignored): what splats and copies produce, with no per-cell work.
+    pub fn set_brick(&mut self, brick: [usize; 3], values: Box<[f32]>) -> Outcome<()> {
+        let shape = self.cache.shape;
+        let width = self.cache.width;
+        if values.len() != BRICK_CELLS * width || (0..3).any(|a| brick[a] >= shape.bricks[a]) {
+            return Err(Failure::new(format!(
+                "brick {brick:?} of {} values does not fit a grid of {:?} bricks of {width} component(s)",
+                values.len(),
+                shape.bricks
+            )));
+        }
+        self.pending[shape.brick_index(brick)] = Some(values);
+        Ok(())
+    }
+
     /// Sets every cell of the box `[lo, hi)` to `value`; whole bricks inside the box are set
     /// in one piece.
     pub fn fill_box(&mut self, lo: [usize; 3], hi: [usize; 3], value: &[f32]) -> Outcome<()> {
