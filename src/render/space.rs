@@ -144,19 +144,25 @@ impl Occupancy {
                 t_delta[axis] = -self.brick[axis] / d;
             }
         }
+        // The walk keeps the brick's flat index and, per axis, the bricks left before the
+        // ray leaves the grid, so a step is a few adds; the axis to cross is picked without
+        // branches (the smallest `t_next`, the lowest axis on ties), which the processor
+        // cannot predict along a ray.
+        let stride = [1, n[0] as i64, (n[0] * n[1]) as i64];
+        let mut index = cell[0] + stride[1] * cell[1] + stride[2] * cell[2];
+        let index_step = [0, 1, 2].map(|a| step[a] * stride[a]);
+        let mut left = [0, 1, 2].map(|a| match step[a] {
+            1 => n[a] as i64 - 1 - cell[a],
+            -1 => cell[a],
+            _ => i64::MAX,
+        });
         let mut t = t0;
         let mut run: Option<f64> = None;
         loop {
-            let index = cell[0] as usize + n[0] * (cell[1] as usize + n[1] * cell[2] as usize);
-            let axis = if t_next[0] <= t_next[1] && t_next[0] <= t_next[2] {
-                0
-            } else if t_next[1] <= t_next[2] {
-                1
-            } else {
-                2
-            };
+            let first = usize::from(t_next[1] < t_next[0]);
+            let axis = if t_next[2] < t_next[first] { 2 } else { first };
             let exit = t_next[axis].min(t1);
-            if self.occupied[index] {
+            if self.occupied[index as usize] {
                 run.get_or_insert(t);
             } else if let Some(begin) = run.take() {
                 push_interval(out, begin, t);
@@ -165,12 +171,13 @@ impl Occupancy {
             if t >= t1 {
                 break;
             }
-            cell[axis] += step[axis];
-            if cell[axis] < 0 || cell[axis] >= n[axis] as i64 {
+            if left[axis] == 0 {
                 // Leaving the brick grid is leaving the box, which `t1` marks exactly.
                 t = t1;
                 break;
             }
+            left[axis] -= 1;
+            index += index_step[axis];
             t_next[axis] += t_delta[axis];
         }
         if let Some(begin) = run {
