@@ -19,6 +19,8 @@ mod automaton;
 mod bits;
 mod random;
 mod region;
+#[cfg(test)]
+mod region_tests;
 mod smooth;
 #[cfg(test)]
 mod tests;
