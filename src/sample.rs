@@ -182,7 +182,10 @@ pub trait FieldSampler: Send + Sync {
     /// Writes the values at the centres of `domain`'s cells `[lo, hi)` into `out` (x fastest,
     /// components innermost) and returns true, for a field that is itself a grid on `domain`
     /// and can give its cells without evaluating points; the default returns false. What it
-    /// writes must equal what the block evaluator gives at those centres.
+    /// writes is what the block evaluator gives at those centres: for a grid, its stored
+    /// values, which a read there returns (up to the last-bit rounding of locating a centre
+    /// whose coordinates are not exact in binary). A cache fill uses it for every brick alike,
+    /// so its bricks stay the same for any thread count and order.
     fn fill_cells(
         &self,
         _domain: &Domain,
