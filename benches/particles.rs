@@ -1,21 +1,25 @@
 //! Particle benchmarks: prints the tables the README quotes.
 //!
-//! 1. Flame-wisp dots generated per second and dots splatted per second, on one and two
-//!    threads, and memory per million dots.
-//! 2. End to end at 10 and 80 million dots: generation, splat of count and colour, and an
-//!    emission-only render at 1280×720, with wall time and the process's peak memory.
+//! 1. Flame-wisp dots generated (stored) per second, stored dots splatted per second, and dots
+//!    made and splatted as made (`flamesplat`, count and colour) per second, on one and two
+//!    threads; memory per million stored dots.
+//! 2. End to end at 10 and 80 million dots: made and splatted as made (count and colour), and
+//!    an emission-only render at 1280×720, with wall time and the process's peak memory.
 //! 3. felt's chaos game against `flam3-render` on the same 2D flame (same variations, same
-//!    affine transforms, z = 0) at the same number of iterations; skipped when flam3 is absent.
+//!    affine transforms) at the same number of iterations; skipped when flam3 is absent.
 //!
 //! The flame is three xforms — linear, swirl and spherical with 2D pre-transforms — so both
-//! programs evaluate the same maps. felt's z coordinate is carried along (always 0).
+//! programs evaluate the same maps. The pre-transforms send z to 0, so felt's dots lie in the
+//! plane z = 0 as flam3's points do.
 //!
 //! Run with `cargo bench --bench particles` (`FELT_BENCH_BIG=0` skips the 80-million run;
 //! `FELT_BENCH_ONLY=rates`, `end` or `flam3` runs one of the three parts, for profiling).
 
 use felt::field::{CompiledField, Field};
+use felt::grid::cache::Cache;
 use felt::grid::domain::Domain;
 use felt::particles::chaos::{self, Map, Settings};
+use felt::particles::flame_splat::{SplatInto, splat_flame};
 use felt::particles::guide::guides;
 use felt::particles::splat::{Deposit, Kernel, splat};
 use felt::particles::{Particles, bytes_per_point};
@@ -39,9 +43,10 @@ fn maps() -> Vec<CompiledField> {
     XFORMS
         .iter()
         .map(|(name, c, _)| {
-            // Thesis order a b c d | e f g h | k l m n, z passed through.
+            // Thesis order a b c d | e f g h | k l m n; z is sent to 0, so after the first
+            // step every dot lies in the plane z = 0, as flam3's 2D points do.
             let pre = [
-                c[0], c[1], 0.0, c[2], c[3], c[4], 0.0, c[5], 0.0, 0.0, 1.0, 0.0,
+                c[0], c[1], 0.0, c[2], c[3], c[4], 0.0, c[5], 0.0, 0.0, 0.0, 0.0,
             ];
             let affine = felt::particles::flame::affine_from_coefficients(&pre).unwrap();
             let f = felt::particles::flame::flame(name, &[], Some(affine), None).unwrap();
@@ -88,16 +93,50 @@ fn pool<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
         .install(f)
 }
 
-fn domain(cells: usize) -> Domain {
+/// A 4 × 4 square of `cells` × `cells` cells around the flame, `layers` cells deep (a multiple
+/// of 8). The flame lies in the plane z = 0, placed inside a layer of bricks (a trilinear
+/// stencil there stays in one brick, as flam3's histogram is one layer), not on a brick face.
+fn domain(cells: usize, layers: usize) -> Domain {
     let side = 4.0;
+    let cell = side / cells as f64;
+    let below = (8 * (layers / 16)) as f64 + 3.5;
     Domain::with_cells(
-        DVec3::new(-2.0, -2.0, -0.5),
-        DVec3::new(side, side, 1.0),
+        DVec3::new(-2.0, -2.0, -below * cell),
+        DVec3::new(side, side, layers as f64 * cell),
         DVec3::ZERO,
-        side / cells as f64,
-        side / cells as f64,
+        cell,
+        cell,
     )
     .unwrap()
+}
+
+/// `dots` dots of the flame made and splatted as made into a count and a colour cache on
+/// `d`; returns the two caches.
+fn made_and_splatted(
+    fields: &[CompiledField],
+    dots: usize,
+    d: &Domain,
+    kernel: Kernel,
+) -> (Cache, Cache) {
+    let count = SplatInto {
+        domain: d,
+        kernel,
+        background: &[0.0],
+        previous: None,
+    };
+    let color = SplatInto {
+        domain: d,
+        kernel,
+        background: &[0.0; 3],
+        previous: None,
+    };
+    let g = guides(&Particles::new(vec![[0.0; 3]])).unwrap();
+    let (mut caches, _) =
+        splat_flame(&g, dots, 1, &settings(fields), Some(&count), Some(&color)).unwrap();
+    assert_eq!(caches[0].1.splatted + caches[0].1.outside, dots as u64);
+    let (color, _) = caches.pop().unwrap();
+    let (count, _) = caches.pop().unwrap();
+    (count, color)
 }
 
 /// CPU seconds (user + system) used so far by this process, or by its finished children.
@@ -131,10 +170,10 @@ fn rates() {
     let n = 2_000_000;
     println!("## Dots per second (flame of 3 xforms, one guide, {n} dots)\n");
     println!(
-        "| threads | generated (M dots/s) | per CPU-second (M) | splatted, trilinear (M dots/s) | per CPU-second (M) | splatted, nearest (M dots/s) |"
+        "| threads | generated (M dots/s) | per CPU-second (M) | splatted, trilinear (M dots/s) | per CPU-second (M) | splatted, nearest (M dots/s) | made and splatted as made, trilinear (M dots/s) | per CPU-second (M) |"
     );
-    println!("|---|---|---|---|---|---|");
-    let d = domain(512);
+    println!("|---|---|---|---|---|---|---|---|");
+    let d = domain(512, 8);
     for threads in [1, 2] {
         let (dots, gen_s, gen_cpu) = pool(threads, || {
             let (t, cpu) = (Instant::now(), cpu_seconds(false));
@@ -154,14 +193,22 @@ fn rates() {
                 splat_cpu = cpu;
             }
         }
+        drop(dots);
+        let (made_s, made_cpu) = pool(threads, || {
+            let (t, cpu) = (Instant::now(), cpu_seconds(false));
+            made_and_splatted(&fields, n, &d, Kernel::Trilinear);
+            (t.elapsed().as_secs_f64(), cpu_seconds(false) - cpu)
+        });
         let m = n as f64 / 1e6;
         println!(
-            "| {threads} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} |",
+            "| {threads} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} |",
             m / gen_s,
             m / gen_cpu,
             m / splat_s[0],
             m / splat_cpu,
-            m / splat_s[1]
+            m / splat_s[1],
+            m / made_s,
+            m / made_cpu
         );
     }
     println!(
@@ -175,23 +222,10 @@ fn rates() {
 fn end_to_end(dots: usize) {
     let fields = maps();
     let cpu = cpu_seconds(false);
+    let d = domain(768, 192);
     let t = Instant::now();
-    let set = generate(&fields, dots);
-    let generated = t.elapsed().as_secs_f64();
-    let d = domain(768);
-    let t = Instant::now();
-    let (count, _) = splat(&set, Deposit::One, Kernel::Trilinear, &d, &[0.0], None).unwrap();
-    let (color, _) = splat(
-        &set,
-        Deposit::Vector(set.vectors("Cd").unwrap()),
-        Kernel::Trilinear,
-        &d,
-        &[0.0; 3],
-        None,
-    )
-    .unwrap();
-    let splatted = t.elapsed().as_secs_f64();
-    drop(set);
+    let (count, color) = made_and_splatted(&fields, dots, &d, Kernel::Trilinear);
+    let made = t.elapsed().as_secs_f64();
     let kappa = 1e-3;
     let density = Field::from_grid(
         Arc::new(count) as Arc<dyn GridSource>,
@@ -231,9 +265,9 @@ fn end_to_end(dots: usize) {
     ToneMap::MaxPlusOne.apply(&mut image);
     let rendered = t.elapsed().as_secs_f64();
     println!(
-        "| {} M | {generated:.2} | {splatted:.2} | {rendered:.2} | {:.2} | {:.2} | {:.0} |",
+        "| {} M | {made:.2} | {rendered:.2} | {:.2} | {:.2} | {:.0} |",
         dots / 1_000_000,
-        generated + splatted + rendered,
+        made + rendered,
         cpu_seconds(false) - cpu,
         peak_mib()
     );
@@ -277,10 +311,18 @@ fn against_flam3() {
         iterations / 1_000_000
     );
     println!(
-        "| threads | flam3-render wall (s) | flam3 CPU (s) | felt generate + splat wall (s) | felt CPU (s) | felt / flam3, wall | felt / flam3, CPU |"
+        "felt makes the dots and adds them straight into a count cache and a colour cache \
+         (`flamesplat`): four sums per dot, as flam3's histogram keeps red, green, blue and a \
+         count per bucket. \"nearest\" adds each dot to one cell, as flam3 bins each sample in \
+         one bucket (oversample 1); \"trilinear\" spreads it over eight. \"stored\" is \
+         `flamewisp` followed by `splat` of the count alone.\n"
     );
-    println!("|---|---|---|---|---|---|---|");
+    println!(
+        "| threads | flam3-render wall (s) | flam3 CPU (s) | felt, nearest: wall (s) | CPU (s) | felt / flam3, wall | felt / flam3, CPU | felt, trilinear: CPU (s) | / flam3 | felt, stored: CPU (s) |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|");
     let fields = maps();
+    let d = domain(640, 8);
     for threads in [1, 2] {
         let (t, cpu) = (Instant::now(), cpu_seconds(true));
         let out = Command::new("flam3-render")
@@ -298,17 +340,26 @@ fn against_flam3() {
             );
             return;
         }
-        let (felt_s, felt_cpu) = pool(threads, || {
+        let made = |kernel| {
+            pool(threads, || {
+                let (t, cpu) = (Instant::now(), cpu_seconds(false));
+                made_and_splatted(&fields, iterations, &d, kernel);
+                (t.elapsed().as_secs_f64(), cpu_seconds(false) - cpu)
+            })
+        };
+        let (near_s, near_cpu) = made(Kernel::Nearest);
+        let (_, tri_cpu) = made(Kernel::Trilinear);
+        let (_, stored_cpu) = pool(threads, || {
             let (t, cpu) = (Instant::now(), cpu_seconds(false));
             let set = generate(&fields, iterations);
-            let d = domain(640);
             splat(&set, Deposit::One, Kernel::Trilinear, &d, &[0.0], None).unwrap();
             (t.elapsed().as_secs_f64(), cpu_seconds(false) - cpu)
         });
         println!(
-            "| {threads} | {flam3_s:.2} | {flam3_cpu:.2} | {felt_s:.2} | {felt_cpu:.2} | {:.2} | {:.2} |",
-            felt_s / flam3_s,
-            felt_cpu / flam3_cpu
+            "| {threads} | {flam3_s:.2} | {flam3_cpu:.2} | {near_s:.2} | {near_cpu:.2} | {:.2} | {:.2} | {tri_cpu:.2} | {:.2} | {stored_cpu:.2} |",
+            near_s / flam3_s,
+            near_cpu / flam3_cpu,
+            tri_cpu / flam3_cpu
         );
     }
     println!();
@@ -322,12 +373,12 @@ fn main() {
     }
     if part("end") {
         println!(
-            "## End to end (generate, splat count and colour into 768×768×192 cells, render 1280×720)\n"
+            "## End to end (dots made and splatted as made, count and colour, into 768×768×192 cells; render 1280×720)\n"
         );
         println!(
-            "| dots | generate (s) | splat (s) | render (s) | total wall (s) | total CPU (s) | peak memory (MiB) |"
+            "| dots | make and splat (s) | render (s) | total wall (s) | total CPU (s) | peak memory (MiB) |"
         );
-        println!("|---|---|---|---|---|---|---|");
+        println!("|---|---|---|---|---|---|");
         end_to_end(10_000_000);
         if std::env::var("FELT_BENCH_BIG").as_deref() != Ok("0") {
             end_to_end(80_000_000);

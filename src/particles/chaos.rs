@@ -60,19 +60,18 @@ pub struct Report {
 }
 
 /// One block of lanes: chains `first..first + lanes` of guide `guide`.
-struct Block {
-    guide: usize,
+pub(super) struct Block {
+    pub guide: usize,
     first: usize,
-    dots: usize,
+    pub dots: usize,
 }
 
-/// `count` dots per guide.
-pub fn generate(
+/// The maps' cumulative weights and the number of dots, after checking the settings.
+pub(super) fn prepare(
     guides: &[Guide],
     count: usize,
-    seed: u64,
     settings: &Settings,
-) -> Outcome<(Particles, Report)> {
+) -> Outcome<(Vec<f64>, usize)> {
     if settings.maps.is_empty() {
         return Err(Failure::new("a flame needs at least one map"));
     }
@@ -101,10 +100,49 @@ pub fn generate(
         .len()
         .checked_mul(count)
         .ok_or_else(|| Failure::new("too many dots"))?;
+    Ok((cumulative, dots))
+}
+
+/// `count` dots per guide.
+pub fn generate(
+    guides: &[Guide],
+    count: usize,
+    seed: u64,
+    settings: &Settings,
+) -> Outcome<(Particles, Report)> {
+    let (cumulative, dots) = prepare(guides, count, settings)?;
     super::check_memory(dots, &[3], "flame dots")?;
-    let chain = settings.iterations;
+    let blocks = blocks(guides.len(), count, settings.iterations);
+    let mut positions = vec![[0f32; 3]; dots];
+    let mut colors = vec![[0f32; 3]; dots];
+    let lengths: Vec<usize> = blocks.iter().map(|b| b.dots).collect();
+    let restarts: Vec<u64> = split(&mut positions, &lengths)
+        .into_par_iter()
+        .zip(split(&mut colors, &lengths))
+        .zip(blocks.par_iter())
+        .map(|((positions, colors), block)| {
+            let mut stored = Stored::new(block, settings.iterations, positions, colors);
+            run_block(
+                &guides[block.guide],
+                block,
+                seed,
+                settings,
+                &cumulative,
+                &mut stored,
+            )
+        })
+        .collect::<Outcome<_>>()?;
+    let restarts = restarts.iter().sum();
+    let mut set = Particles::new(positions);
+    set.set("Cd", Values::Vector(colors))?;
+    Ok((set, Report { restarts }))
+}
+
+/// The blocks of lanes for `count` dots per guide in chains of `chain` steps, fixed by the
+/// chain numbering alone.
+pub(super) fn blocks(guides: usize, count: usize, chain: usize) -> Vec<Block> {
     let mut blocks = Vec::new();
-    for g in 0..guides.len() {
+    for g in 0..guides {
         let chains = count.div_ceil(chain);
         for first in (0..chains).step_by(LANES) {
             let end = ((first + LANES) * chain).min(count);
@@ -115,29 +153,72 @@ pub fn generate(
             });
         }
     }
-    let mut positions = vec![[0f32; 3]; dots];
-    let mut colors = vec![[0f32; 3]; dots];
-    let lengths: Vec<usize> = blocks.iter().map(|b| b.dots).collect();
-    let restarts: Vec<u64> = split(&mut positions, &lengths)
-        .into_par_iter()
-        .zip(split(&mut colors, &lengths))
-        .zip(blocks.par_iter())
-        .map(|((p, c), block)| {
-            run_block(
-                &guides[block.guide],
-                block,
-                seed,
-                settings,
-                &cumulative,
-                p,
-                c,
-            )
-        })
-        .collect::<Outcome<_>>()?;
-    let restarts = restarts.iter().sum();
-    let mut set = Particles::new(positions);
-    set.set("Cd", Values::Vector(colors))?;
-    Ok((set, Report { restarts }))
+    blocks
+}
+
+/// Where a block's dots go as they are stamped.
+pub(super) trait Sink {
+    /// Dot `index` (counted from 0 along its chain) of lane `lane`, in world space.
+    fn dot(
+        &mut self,
+        lane: usize,
+        index: usize,
+        position: [f32; 3],
+        color: [f32; 3],
+    ) -> Outcome<()>;
+}
+
+/// Stores a block's dots in its run of the output, chain after chain.
+struct Stored<'a> {
+    chain: usize,
+    quota: Vec<usize>,
+    staged_positions: Vec<[f32; 3]>,
+    staged_colors: Vec<[f32; 3]>,
+    positions: &'a mut [[f32; 3]],
+    colors: &'a mut [[f32; 3]],
+}
+
+impl<'a> Stored<'a> {
+    fn new(
+        block: &Block,
+        chain: usize,
+        positions: &'a mut [[f32; 3]],
+        colors: &'a mut [[f32; 3]],
+    ) -> Stored<'a> {
+        let lanes = block.dots.div_ceil(chain);
+        Stored {
+            chain,
+            quota: (0..lanes)
+                .map(|l| chain.min(block.dots - l * chain))
+                .collect(),
+            staged_positions: vec![[0f32; 3]; lanes * STAGE],
+            staged_colors: vec![[0f32; 3]; lanes * STAGE],
+            positions,
+            colors,
+        }
+    }
+}
+
+impl Sink for Stored<'_> {
+    fn dot(
+        &mut self,
+        lane: usize,
+        index: usize,
+        position: [f32; 3],
+        color: [f32; 3],
+    ) -> Outcome<()> {
+        let n = index % STAGE;
+        self.staged_positions[lane * STAGE + n] = position;
+        self.staged_colors[lane * STAGE + n] = color;
+        if n + 1 == STAGE || index + 1 == self.quota[lane] {
+            let to = lane * self.chain + index - n;
+            let from = lane * STAGE;
+            self.positions[to..to + n + 1]
+                .copy_from_slice(&self.staged_positions[from..from + n + 1]);
+            self.colors[to..to + n + 1].copy_from_slice(&self.staged_colors[from..from + n + 1]);
+        }
+        Ok(())
+    }
 }
 
 /// Three coordinate arrays indexed by lane.
@@ -216,14 +297,13 @@ impl Gather {
 ///
 /// Lane state is kept as structure of arrays and gathered straight into the evaluator's
 /// input blocks, map by map.
-fn run_block(
+pub(super) fn run_block(
     guide: &Guide,
     block: &Block,
     seed: u64,
     settings: &Settings,
     cumulative: &[f64],
-    positions: &mut [[f32; 3]],
-    colors: &mut [[f32; 3]],
+    sink: &mut impl Sink,
 ) -> Outcome<u64> {
     let chain = settings.iterations;
     let lanes = block.dots.div_ceil(chain);
@@ -245,8 +325,6 @@ fn run_block(
     let mut shift = soa();
     let mut tinted = soa();
     let mut color = soa();
-    let mut staged_positions = vec![[0f32; 3]; lanes * STAGE];
-    let mut staged_colors = vec![[0f32; 3]; lanes * STAGE];
     let mut picked = vec![0u32; lanes];
     let mut members: Vec<Vec<u32>> = vec![Vec::with_capacity(lanes); settings.maps.len()];
     let mut gather = Gather::new();
@@ -329,16 +407,13 @@ fn run_block(
                 continue;
             }
             let world = guide.place(DVec3::from_array(p));
-            let n = stamped[l] % STAGE;
-            staged_positions[l * STAGE + n] = world.to_array().map(|c| c as f32);
-            staged_colors[l * STAGE + n] = k.map(|c| c as f32);
+            sink.dot(
+                l,
+                stamped[l],
+                world.to_array().map(|c| c as f32),
+                k.map(|c| c as f32),
+            )?;
             stamped[l] += 1;
-            if n + 1 == STAGE || stamped[l] == quota[l] {
-                let to = l * chain + stamped[l] - (n + 1);
-                let from = l * STAGE;
-                positions[to..to + n + 1].copy_from_slice(&staged_positions[from..from + n + 1]);
-                colors[to..to + n + 1].copy_from_slice(&staged_colors[from..from + n + 1]);
-            }
         }
         active.retain(|&l| stamped[l as usize] < quota[l as usize]);
     }

@@ -15,6 +15,7 @@
 pub mod chaos;
 pub mod evaluate;
 pub mod flame;
+pub mod flame_splat;
 pub mod guide;
 pub mod io;
 pub mod pointfield;
@@ -24,6 +25,8 @@ pub mod splat;
 mod splat_bins;
 pub mod wisp;
 
+#[cfg(test)]
+mod flame_splat_tests;
 #[cfg(test)]
 mod splat_tests;
 #[cfg(test)]

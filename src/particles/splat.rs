@@ -95,11 +95,11 @@ pub(super) struct Indexer {
     to_index: DMat3,
     pub cells: [usize; 3],
     limit: [f64; 3],
-    kernel: Kernel,
+    pub kernel: Kernel,
 }
 
 impl Indexer {
-    fn new(domain: &Domain, kernel: Kernel) -> Outcome<Indexer> {
+    pub(super) fn new(domain: &Domain, kernel: Kernel) -> Outcome<Indexer> {
         let cells = domain
             .resolution
             .ok_or_else(|| Failure::new("splat needs a cache on a domain with cells"))?;
@@ -151,9 +151,22 @@ impl Indexer {
 }
 
 /// Rounds to the nearest integer, halves away from zero: a conversion, not a library call.
+/// Every value rounded here is at most 2⁶² in magnitude (the scale sees to it), where the
+/// processor's truncating conversion is exact; it skips the NaN and range checks of `as`, which
+/// took most of a splat's arithmetic.
 #[inline]
 fn fixed(x: f64) -> i64 {
-    (x + 0.5f64.copysign(x)) as i64
+    let rounded = x + 0.5f64.copysign(x);
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_mm_cvttsd_si64, _mm_set_sd};
+        // SAFETY: SSE2 is part of every x86_64 processor.
+        unsafe { _mm_cvttsd_si64(_mm_set_sd(rounded)) }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        rounded as i64
+    }
 }
 
 /// Adds the binned particles `bin` (each with a stencil cell in the brick whose first cell is
@@ -177,23 +190,11 @@ pub(super) fn accumulate<const W: usize>(
         let v = entry.value.map(|x| x as f64);
         if indexer.kernel == Kernel::Nearest {
             for c in 0..W {
-                acc[at * W + c] += fixed(v[c] * scale);
+                acc[at * W + c] += nearest_share(v[c] * scale);
             }
             continue;
         }
         let (sx, sy, sz) = (l.step[0], l.step[1] * PAD, l.step[2] * PAD * PAD);
-        let [fx, fy, fz] = l.frac;
-        let (gx, gy, gz) = (1.0 - fx, 1.0 - fy, 1.0 - fz);
-        let (lo_yz, hi_y, hi_z, hi_yz) = (gy * gz, fy * gz, gy * fz, fy * fz);
-        let weights = [
-            gx * lo_yz,
-            fx * lo_yz,
-            gx * hi_y,
-            fx * hi_y,
-            gx * hi_z,
-            fx * hi_z,
-            gx * hi_yz,
-        ];
         let cells = [
             at,
             at + sx,
@@ -204,17 +205,53 @@ pub(super) fn accumulate<const W: usize>(
             at + sy + sz,
             at + sx + sy + sz,
         ];
+        let weights = l.weights();
         for c in 0..W {
-            let scaled = v[c] * scale;
-            let mut rest = fixed(scaled);
-            for (w, cell) in weights.iter().zip(cells) {
-                let q = fixed(scaled * w);
-                acc[cell * W + c] += q;
-                rest -= q;
-            }
-            acc[cells[7] * W + c] += rest;
+            shares(v[c] * scale, &weights, |corner, q| {
+                acc[cells[corner] * W + c] += q
+            });
         }
     }
+}
+
+impl Landing {
+    /// The trilinear weights of the stencil's first seven corners (corner bit 0 steps along x,
+    /// bit 1 along y, bit 2 along z); the eighth gets what is left.
+    #[inline]
+    pub(super) fn weights(&self) -> [f64; 7] {
+        let [fx, fy, fz] = self.frac;
+        let (gx, gy, gz) = (1.0 - fx, 1.0 - fy, 1.0 - fz);
+        let (lo_yz, hi_y, hi_z, hi_yz) = (gy * gz, fy * gz, gy * fz, fy * fz);
+        [
+            gx * lo_yz,
+            fx * lo_yz,
+            gx * hi_y,
+            fx * hi_y,
+            gx * hi_z,
+            fx * hi_z,
+            gx * hi_yz,
+        ]
+    }
+}
+
+/// Splits one particle's scaled value over the trilinear stencil: `add(corner, q)` for the
+/// eight corners, each of the first seven getting its weight's share rounded to an integer and
+/// the last what is left, so the shares add up to the rounded value exactly.
+#[inline]
+pub(super) fn shares(scaled: f64, weights: &[f64; 7], mut add: impl FnMut(usize, i64)) {
+    let mut rest = fixed(scaled);
+    for (corner, w) in weights.iter().enumerate() {
+        let q = fixed(scaled * w);
+        add(corner, q);
+        rest -= q;
+    }
+    add(7, rest);
+}
+
+/// The one share of a nearest-cell splat.
+#[inline]
+pub(super) fn nearest_share(scaled: f64) -> i64 {
+    fixed(scaled)
 }
 
 /// The interior of a scratch accumulator, the brick's own cells in brick order.
@@ -277,48 +314,94 @@ fn run<const W: usize>(
     background: &[f64],
     previous: Option<&Cache>,
 ) -> Outcome<(Cache, SplatReport)> {
-    let counts = indexer.cells.map(|c| c.div_ceil(BRICK));
-    // A brick's new values: the earlier state's (or the background) plus the sums.
-    let finish = |b: usize, sums: &[i64], scale: f64| -> Box<[f32]> {
+    let target = Target {
+        domain,
+        background,
+        previous,
+        counts: indexer.cells.map(|c| c.div_ceil(BRICK)),
+    };
+    let finish = |b: usize, sums: &[i64], scale: f64| target.values::<W>(b, sums, scale);
+    let Bins { report, bricks } = bin(indexer, positions, &value, &finish)?;
+    Ok((target.assemble(W, bricks)?, report))
+}
+
+/// The cache a splat adds into: its domain, background and earlier state.
+pub(super) struct Target<'a> {
+    pub domain: &'a Domain,
+    pub background: &'a [f64],
+    pub previous: Option<&'a Cache>,
+    /// Bricks along each axis.
+    pub counts: [usize; 3],
+}
+
+impl Target<'_> {
+    /// Brick `b`'s new values: the earlier state's (or the background) plus the integer sums
+    /// divided by the fixed-point scale.
+    pub(super) fn values<const W: usize>(&self, b: usize, sums: &[i64], scale: f64) -> Box<[f32]> {
+        self.values_of::<W>(b, sums, W, 0, scale)
+    }
+
+    /// As `values`, from sums of `stride` components per cell whose `W` components start at
+    /// `first`.
+    pub(super) fn values_of<const W: usize>(
+        &self,
+        b: usize,
+        sums: &[i64],
+        stride: usize,
+        first: usize,
+        scale: f64,
+    ) -> Box<[f32]> {
         let inverse = 1.0 / scale;
-        let before = previous.and_then(|p| p.brick_values_at(brick_coords(b, counts)));
+        let before = self
+            .previous
+            .and_then(|p| p.brick_values_at(brick_coords(b, self.counts)));
         let mut out = vec![0f32; BRICK_CELLS * W].into_boxed_slice();
+        let cells = out.chunks_exact_mut(W).zip(sums.chunks_exact(stride));
         match before {
             Some(v) => {
-                for ((o, &sum), &b) in out.iter_mut().zip(sums).zip(v) {
-                    *o = (b as f64 + sum as f64 * inverse) as f32;
+                for ((o, sum), b) in cells.zip(v.chunks_exact(W)) {
+                    for c in 0..W {
+                        o[c] = (b[c] as f64 + sum[first + c] as f64 * inverse) as f32;
+                    }
                 }
             }
             None => {
-                for (o, sum) in out.chunks_exact_mut(W).zip(sums.chunks_exact(W)) {
+                for (o, sum) in cells {
                     for c in 0..W {
-                        o[c] = (background[c] + sum[c] as f64 * inverse) as f32;
+                        o[c] = (self.background[c] + sum[first + c] as f64 * inverse) as f32;
                     }
                 }
             }
         }
         out
-    };
-    let Bins { report, bricks } = bin(indexer, positions, &value, &finish)?;
-    let mut builder = SparseBuilder::new(domain.clone(), W, background.to_vec())?;
-    if let Some(old) = previous {
-        // The bricks this splat does not reach keep the earlier state's values.
-        let mut reached = bricks.iter().map(|(b, _)| *b).peekable();
-        for b in 0..counts.iter().product() {
-            if reached.next_if_eq(&b).is_some() {
-                continue;
-            }
-            let at = brick_coords(b, counts);
-            if old.brick_stored(at) {
-                let kept = old.brick_values_at(at).unwrap_or_default();
-                builder.set_brick(at, kept.into())?;
+    }
+
+    /// The new cache state: the bricks reached (ascending, with their new values), and the
+    /// earlier state's other bricks as they were.
+    pub(super) fn assemble(
+        &self,
+        width: usize,
+        bricks: Vec<(usize, Box<[f32]>)>,
+    ) -> Outcome<Cache> {
+        let mut builder = SparseBuilder::new(self.domain.clone(), width, self.background.to_vec())?;
+        if let Some(old) = self.previous {
+            let mut reached = bricks.iter().map(|(b, _)| *b).peekable();
+            for b in 0..self.counts.iter().product() {
+                if reached.next_if_eq(&b).is_some() {
+                    continue;
+                }
+                let at = brick_coords(b, self.counts);
+                if old.brick_stored(at) {
+                    let kept = old.brick_values_at(at).unwrap_or_default();
+                    builder.set_brick(at, kept.into())?;
+                }
             }
         }
+        for (b, values) in bricks {
+            builder.set_brick(brick_coords(b, self.counts), values)?;
+        }
+        Ok(builder.build())
     }
-    for (b, values) in bricks {
-        builder.set_brick(brick_coords(b, counts), values)?;
-    }
-    Ok((builder.build(), report))
 }
 
 fn brick_coords(index: usize, counts: [usize; 3]) -> [usize; 3] {

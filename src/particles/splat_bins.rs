@@ -64,7 +64,11 @@ fn scale_for<const W: usize>(
                 .sum()
         })
         .collect();
-    let magnitude: f64 = partial.iter().sum();
+    scale_for_magnitude(partial.iter().sum())
+}
+
+/// The largest power of two that keeps `magnitude` (a sum of |values|) at most 2⁶².
+pub(super) fn scale_for_magnitude(magnitude: f64) -> Outcome<f64> {
     if !magnitude.is_finite() {
         return Err(Failure::new(
             "the splatted values add up to more than a float can hold",

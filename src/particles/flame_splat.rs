@@ -1,0 +1,478 @@
+//! Splatting a flame as it is made: the chaos game of `chaos`, with every dot added straight
+//! into the fixed-point sums of a count cache and a colour cache, so no dot is ever stored.
+//! Eighty million dots take the memory of the bricks they reach, not 1.9 GiB of dots.
+//!
+//! The key decision: each worker thread keeps its own sparse table of brick sums, and the
+//! tables are added together at the end. Integer addition is exact and order-free, so which
+//! worker adds which block's dots does not matter: the caches are bit-identical for any thread
+//! count. The count is also bit-identical to `splat` of the stored dots, since its fixed-point
+//! scale (from the number of dots) and each dot's shares are the same. The colour's scale comes
+//! from a bound on the dots' colours (the map colours and the colour field's range) rather than
+//! from their sum, which only a stored set can take, so a colour cell may differ from the
+//! stored path's in its last bit.
+
+use super::chaos::{self, Report, Settings, Sink};
+use super::guide::Guide;
+use super::splat::{Indexer, Kernel, Landing, SplatReport, Target, nearest_share, shares};
+use super::splat_bins::scale_for_magnitude;
+use crate::budget::Reservation;
+use crate::failure::{Failure, Outcome};
+use crate::grid::cache::{BRICK, BRICK_CELLS, Cache};
+use crate::grid::domain::Domain;
+use crate::sample::Aabb;
+use rayon::prelude::*;
+use std::sync::Mutex;
+
+/// A cache the flame is splatted into.
+pub struct SplatInto<'a> {
+    pub domain: &'a Domain,
+    pub kernel: Kernel,
+    pub background: &'a [f64],
+    /// The cache's earlier state, which the dots add to.
+    pub previous: Option<&'a Cache>,
+}
+
+/// Bricks in a worker's first run of sums; each later run doubles, up to `MOST_PER_RUN`.
+const FIRST_RUN: usize = 16;
+const MOST_PER_RUN: usize = 1024;
+/// A huge page: runs of sums are advised to the kernel as huge-page memory, since a flame's
+/// dots land all over the grid and with 4 KiB pages nearly every dot would miss the TLB.
+const HUGE_PAGE: usize = 2 << 20;
+
+/// One worker's sums of `W` components per cell, brick by brick, in a few long runs of
+/// memory rather than one allocation per brick.
+struct BrickSums<const W: usize> {
+    strides: [usize; 3],
+    /// Per brick of the grid: 0 when it has no sums yet, else its place in `bricks` plus one.
+    slots: Vec<u32>,
+    /// The bricks with sums, in the order they were reached: brick index, run, start in run.
+    bricks: Vec<(usize, u32, u32)>,
+    runs: Vec<Vec<i64>>,
+    /// Cells of the last run not yet given to a brick.
+    free: usize,
+    memory: Vec<Reservation>,
+    outside: u64,
+}
+
+impl<const W: usize> BrickSums<W> {
+    const BRICK_SUMS: usize = BRICK_CELLS * W;
+
+    fn new(counts: [usize; 3]) -> Outcome<BrickSums<W>> {
+        let total: usize = counts.iter().product();
+        if total >= u32::MAX as usize {
+            return Err(Failure::new(
+                "a flame splat takes a grid of fewer than 2^32 bricks",
+            ));
+        }
+        let table = crate::budget::reserve((total * 4) as f64, "flame splat brick table")?;
+        Ok(BrickSums {
+            strides: [1, counts[0], counts[0] * counts[1]],
+            slots: vec![0; total],
+            bricks: Vec::new(),
+            runs: Vec::new(),
+            free: 0,
+            memory: vec![table],
+            outside: 0,
+        })
+    }
+
+    /// The brick holding `cell` and the cell's index in it.
+    #[inline]
+    fn locate(&self, cell: [usize; 3]) -> (usize, usize) {
+        let b = (cell[0] / BRICK) * self.strides[0]
+            + (cell[1] / BRICK) * self.strides[1]
+            + (cell[2] / BRICK) * self.strides[2];
+        let local = cell[0] % BRICK + BRICK * (cell[1] % BRICK + BRICK * (cell[2] % BRICK));
+        (b, local)
+    }
+
+    /// Where brick `b`'s sums are (run, start), giving it zeroed sums when it has none.
+    #[inline]
+    fn place(&mut self, b: usize) -> Outcome<(usize, usize)> {
+        let s = self.slots[b];
+        if s != 0 {
+            let (_, run, start) = self.bricks[s as usize - 1];
+            return Ok((run as usize, start as usize));
+        }
+        if self.free == 0 {
+            self.grow()?;
+        }
+        let run = self.runs.len() - 1;
+        let start = self.runs[run].len() - self.free;
+        self.free -= Self::BRICK_SUMS;
+        self.bricks.push((b, run as u32, start as u32));
+        self.slots[b] = self.bricks.len() as u32;
+        Ok((run, start))
+    }
+
+    /// A new run of zeroed sums, twice the last one's length up to `MOST_PER_RUN` bricks.
+    #[cold]
+    fn grow(&mut self) -> Outcome<()> {
+        let bricks = match self.runs.last() {
+            None => FIRST_RUN,
+            Some(r) => (2 * r.len() / Self::BRICK_SUMS).min(MOST_PER_RUN),
+        };
+        let len = bricks * Self::BRICK_SUMS;
+        self.memory.push(crate::budget::reserve(
+            (len * 8) as f64,
+            "flame splat sums",
+        )?);
+        let run = vec![0i64; len];
+        advise_huge_pages(&run);
+        self.runs.push(run);
+        self.free = len;
+        Ok(())
+    }
+
+    /// Brick `s`'s sums, for the `s`-th brick reached.
+    fn sums(&self, s: usize) -> &[i64] {
+        let (_, run, start) = self.bricks[s];
+        &self.runs[run as usize][start as usize..start as usize + Self::BRICK_SUMS]
+    }
+
+    /// Adds one dot's `scaled` value (value times the fixed-point scale).
+    #[inline]
+    fn add(&mut self, l: &Landing, kernel: Kernel, scaled: [f64; W]) -> Outcome<()> {
+        if kernel == Kernel::Nearest {
+            let (b, local) = self.locate(l.cell);
+            let (run, start) = self.place(b)?;
+            let at = start + local * W;
+            let sums = &mut self.runs[run][at..at + W];
+            for c in 0..W {
+                sums[c] += nearest_share(scaled[c]);
+            }
+            return Ok(());
+        }
+        let weights = l.weights();
+        // Mostly the whole stencil lies in one brick: one lookup.
+        let inside = (0..3).all(|a| l.step[a] == 0 || l.cell[a] % BRICK != BRICK - 1);
+        if inside {
+            let (b, local) = self.locate(l.cell);
+            let (run, start) = self.place(b)?;
+            let (sx, sy, sz) = (l.step[0], l.step[1] * BRICK, l.step[2] * BRICK * BRICK);
+            let at = [0, sx, sy, sx + sy, sz, sx + sz, sy + sz, sx + sy + sz]
+                .map(|o| start + (local + o) * W);
+            let sums = &mut self.runs[run];
+            for c in 0..W {
+                shares(scaled[c], &weights, |corner, q| sums[at[corner] + c] += q);
+            }
+            return Ok(());
+        }
+        let mut at = [(0usize, 0usize); 8];
+        for (corner, slot) in at.iter_mut().enumerate() {
+            let cell = [0, 1, 2].map(|a| l.cell[a] + l.step[a] * (corner >> a & 1));
+            let (b, local) = self.locate(cell);
+            let (run, start) = self.place(b)?;
+            *slot = (run, start + local * W);
+        }
+        let runs = &mut self.runs;
+        for c in 0..W {
+            shares(scaled[c], &weights, |corner, q| {
+                let (run, at) = at[corner];
+                runs[run][at + c] += q;
+            });
+        }
+        Ok(())
+    }
+
+    /// Adds another worker's sums into these.
+    fn absorb(&mut self, other: BrickSums<W>) -> Outcome<()> {
+        self.outside += other.outside;
+        for (s, &(b, _, _)) in other.bricks.iter().enumerate() {
+            let (run, start) = self.place(b)?;
+            let mine = &mut self.runs[run][start..start + Self::BRICK_SUMS];
+            for (x, y) in mine.iter_mut().zip(other.sums(s)) {
+                *x += y;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Asks the kernel to back the whole huge pages inside `run` with huge pages.
+fn advise_huge_pages(run: &[i64]) {
+    let begin = run.as_ptr() as usize;
+    let end = begin + std::mem::size_of_val(run);
+    let first = begin.next_multiple_of(HUGE_PAGE);
+    if end > first + HUGE_PAGE {
+        let len = (end - first) / HUGE_PAGE * HUGE_PAGE;
+        // SAFETY: the range lies inside memory this process owns; the advice changes how the
+        // kernel backs it, never its contents. A refusal only loses the speed-up.
+        unsafe {
+            libc::madvise(first as *mut libc::c_void, len, libc::MADV_HUGEPAGE);
+        }
+    }
+}
+
+/// Where one worker's dots go: the indexers and scales of the caches, and its sums. Count
+/// and colour on one domain share one table of four sums per cell (count, red, green, blue),
+/// so a dot lands once and touches one brick.
+struct Worker<'a> {
+    count: Option<(&'a Indexer, f64, BrickSums<1>)>,
+    color: Option<(&'a Indexer, f64, BrickSums<3>)>,
+    joint: Option<(&'a Indexer, [f64; 2], BrickSums<4>)>,
+}
+
+impl Sink for Worker<'_> {
+    #[inline]
+    fn dot(&mut self, _: usize, _: usize, position: [f32; 3], color: [f32; 3]) -> Outcome<()> {
+        if let Some((indexer, [count, tint], sums)) = &mut self.joint {
+            let [r, g, b] = color.map(|c| c as f64 * *tint);
+            return deposit(indexer, sums, position, [*count, r, g, b]);
+        }
+        if let Some((indexer, scale, sums)) = &mut self.count {
+            deposit(indexer, sums, position, [*scale])?;
+        }
+        if let Some((indexer, scale, sums)) = &mut self.color {
+            deposit(indexer, sums, position, color.map(|c| c as f64 * *scale))?;
+        }
+        Ok(())
+    }
+}
+
+/// Adds one dot's `scaled` value at `position`, or counts it outside.
+#[inline]
+fn deposit<const W: usize>(
+    indexer: &Indexer,
+    sums: &mut BrickSums<W>,
+    position: [f32; 3],
+    scaled: [f64; W],
+) -> Outcome<()> {
+    match indexer.land(position) {
+        Some(l) => sums.add(&l, indexer.kernel, scaled),
+        None => {
+            sums.outside += 1;
+            Ok(())
+        }
+    }
+}
+
+/// A bound on the sum of |component| over one dot's colour, or `None` when the colour field's
+/// range is not finite.
+fn color_bound(settings: &Settings) -> Option<f64> {
+    let mut bound = 0.0;
+    for c in 0..3 {
+        let maps = settings
+            .maps
+            .iter()
+            .map(|m| m.color[c].abs())
+            .fold(0.0, f64::max);
+        // A dot's colour is an average of map colours, or of a map colour and the colour
+        // field's value; rounding to f32 can carry it a hair past the bound in f64.
+        let field = match settings.color {
+            Some(f) => {
+                let (lo, hi) = f.range(&Aabb::everything())[c];
+                let most = lo.abs().max(hi.abs());
+                if !most.is_finite() {
+                    return None;
+                }
+                most
+            }
+            None => 0.0,
+        };
+        bound += maps.max(field) * (1.0 + 1e-6);
+    }
+    Some(bound)
+}
+
+/// The dots of `chaos::generate(guides, count, seed, settings)`, splatted as they are made:
+/// a count of dots into `count_into` and their colours into `color_into`. Returns the caches'
+/// new states (in that order, for those given) with their reports, and the game's report.
+pub fn splat_flame(
+    guides: &[Guide],
+    count: usize,
+    seed: u64,
+    settings: &Settings,
+    count_into: Option<&SplatInto>,
+    color_into: Option<&SplatInto>,
+) -> Outcome<(Vec<(Cache, SplatReport)>, Report)> {
+    let (cumulative, dots) = chaos::prepare(guides, count, settings)?;
+    let indexer =
+        |into: Option<&SplatInto>| into.map(|i| Indexer::new(i.domain, i.kernel)).transpose();
+    let (count_indexer, color_indexer) = (indexer(count_into)?, indexer(color_into)?);
+    let count_scale = scale_for_magnitude(dots as f64)?;
+    let color_scale = match color_into {
+        None => 1.0,
+        Some(_) => {
+            let bound = color_bound(settings).ok_or_else(|| {
+                Failure::new(
+                    "the colour field's range is not finite, so it cannot be splatted as made",
+                )
+                .with_help("use flamewisp and splat, which take the sum of the stored colours")
+            })?;
+            scale_for_magnitude(dots as f64 * bound)?
+        }
+    };
+    for (into, indexer, width) in [
+        (count_into, &count_indexer, 1),
+        (color_into, &color_indexer, 3),
+    ] {
+        if let (Some(into), Some(indexer)) = (into, indexer) {
+            check_shape(into, indexer, width)?;
+        }
+    }
+    let bricks_of = |i: &Indexer| i.cells.map(|c| c.div_ceil(BRICK));
+    let joint = match (count_into, color_into) {
+        (Some(a), Some(b)) => a.domain == b.domain && a.kernel == b.kernel,
+        _ => false,
+    };
+    let workers: Vec<Mutex<Option<Worker>>> = (0..rayon::current_num_threads().max(1))
+        .map(|_| Mutex::new(None))
+        .collect();
+    let new_worker = || -> Outcome<Worker> {
+        if joint && let Some(i) = &count_indexer {
+            return Ok(Worker {
+                count: None,
+                color: None,
+                joint: Some((i, [count_scale, color_scale], BrickSums::new(bricks_of(i))?)),
+            });
+        }
+        Ok(Worker {
+            count: match &count_indexer {
+                Some(i) => Some((i, count_scale, BrickSums::new(bricks_of(i))?)),
+                None => None,
+            },
+            color: match &color_indexer {
+                Some(i) => Some((i, color_scale, BrickSums::new(bricks_of(i))?)),
+                None => None,
+            },
+            joint: None,
+        })
+    };
+    let blocks = chaos::blocks(guides.len(), count, settings.iterations);
+    // A worker that waits inside a block (a field that runs parallel work) may take up
+    // another block on the same thread; that block gets sums of its own, kept aside.
+    let aside: Mutex<Vec<Worker>> = Mutex::new(Vec::new());
+    let restarts: Vec<u64> = blocks
+        .par_iter()
+        .map(|block| {
+            let t = rayon::current_thread_index().unwrap_or(0) % workers.len();
+            let run = |sink: &mut Worker| {
+                chaos::run_block(
+                    &guides[block.guide],
+                    block,
+                    seed,
+                    settings,
+                    &cumulative,
+                    sink,
+                )
+            };
+            match workers[t].try_lock() {
+                Ok(mut worker) => {
+                    if worker.is_none() {
+                        *worker = Some(new_worker()?);
+                    }
+                    run(worker.as_mut().expect("the worker was just made"))
+                }
+                Err(_) => {
+                    let mut own = new_worker()?;
+                    let restarts = run(&mut own)?;
+                    aside.lock().unwrap_or_else(|e| e.into_inner()).push(own);
+                    Ok(restarts)
+                }
+            }
+        })
+        .collect::<Outcome<_>>()?;
+    let aside = aside.into_inner().unwrap_or_else(|e| e.into_inner());
+    let mut all = workers
+        .into_iter()
+        .filter_map(|w| w.into_inner().unwrap_or_else(|e| e.into_inner()))
+        .chain(aside);
+    let mut merged = match all.next() {
+        Some(w) => w,
+        None => new_worker()?,
+    };
+    for w in all {
+        if let (Some(a), Some(b)) = (&mut merged.count, w.count) {
+            a.2.absorb(b.2)?;
+        }
+        if let (Some(a), Some(b)) = (&mut merged.color, w.color) {
+            a.2.absorb(b.2)?;
+        }
+        if let (Some(a), Some(b)) = (&mut merged.joint, w.joint) {
+            a.2.absorb(b.2)?;
+        }
+    }
+    let mut out = Vec::new();
+    if let Some((indexer, [count_scale, color_scale], mut sums)) = merged.joint {
+        sums.bricks.sort_unstable_by_key(|&(b, _, _)| b);
+        if let Some(into) = count_into {
+            out.push(finish::<1, 4>(into, indexer, count_scale, &sums, 0, dots)?);
+        }
+        if let Some(into) = color_into {
+            out.push(finish::<3, 4>(into, indexer, color_scale, &sums, 1, dots)?);
+        }
+    }
+    if let (Some(into), Some((indexer, scale, mut sums))) = (count_into, merged.count) {
+        sums.bricks.sort_unstable_by_key(|&(b, _, _)| b);
+        out.push(finish::<1, 1>(into, indexer, scale, &sums, 0, dots)?);
+    }
+    if let (Some(into), Some((indexer, scale, mut sums))) = (color_into, merged.color) {
+        sums.bricks.sort_unstable_by_key(|&(b, _, _)| b);
+        out.push(finish::<3, 3>(into, indexer, scale, &sums, 0, dots)?);
+    }
+    Ok((
+        out,
+        Report {
+            restarts: restarts.iter().sum(),
+        },
+    ))
+}
+
+/// Fails when a cache cannot take a `width`-component splat on the indexer's cells.
+fn check_shape(into: &SplatInto, indexer: &Indexer, width: usize) -> Outcome<()> {
+    if into.background.len() != width {
+        return Err(Failure::new(format!(
+            "a {width}-component splat cannot go into a cache of {} components",
+            into.background.len()
+        )));
+    }
+    if let Some(old) = into.previous
+        && (old.width() != width || old.resolution() != indexer.cells)
+    {
+        return Err(Failure::new(
+            "the cache splatted onto has another shape than the splat's domain",
+        ));
+    }
+    Ok(())
+}
+
+/// A cache's new state from components `first..first + W` of the merged sums (bricks sorted),
+/// and its report, whose total is the integer sums themselves: exactly what the cells got.
+fn finish<const W: usize, const S: usize>(
+    into: &SplatInto,
+    indexer: &Indexer,
+    scale: f64,
+    sums: &BrickSums<S>,
+    first: usize,
+    dots: usize,
+) -> Outcome<(Cache, SplatReport)> {
+    let target = Target {
+        domain: into.domain,
+        background: into.background,
+        previous: into.previous,
+        counts: indexer.cells.map(|c| c.div_ceil(BRICK)),
+    };
+    let mut total = [0i128; 3];
+    for s in 0..sums.bricks.len() {
+        for cell in sums.sums(s).chunks_exact(S) {
+            for c in 0..W {
+                total[c] += cell[first + c] as i128;
+            }
+        }
+    }
+    let bricks: Vec<(usize, Box<[f32]>)> = (0..sums.bricks.len())
+        .into_par_iter()
+        .map(|s| {
+            let b = sums.bricks[s].0;
+            (b, target.values_of::<W>(b, sums.sums(s), S, first, scale))
+        })
+        .collect();
+    let cache = target.assemble(W, bricks)?;
+    let report = SplatReport {
+        splatted: dots as u64 - sums.outside,
+        outside: sums.outside,
+        total: total.map(|t| t as f64 / scale),
+    };
+    Ok((cache, report))
+}
