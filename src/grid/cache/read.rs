@@ -59,28 +59,33 @@ impl Cache {
         inside.then(|| local / self.domain.cell - DVec3::splat(0.5))
     }
 
-    /// Trilinear values of a scalar cache with at least two cells on every axis: what
-    /// `points::values` computes through `read`, bit for bit, for the case renders ask most
-    /// (a density marched at blocks of points). The general path builds three `AxisStencil`s
-    /// of four weights and slopes per point and copies them around, which cost more than the
-    /// eight reads themselves; here the weights stay in registers and the eight cells are
-    /// read straight from their bricks (one brick for most points, up to eight where the
-    /// stencil crosses brick faces). A point exactly on a cell centre takes the general path,
-    /// which reads that cell alone.
-    fn sample_linear_scalar(&self, xs: &[f64], ys: &[f64], zs: &[f64], out: &mut [f64]) {
+    /// Trilinear values of a cache of `W` components with at least two cells on every axis:
+    /// what `points::values` computes through `read`, bit for bit, for the case renders ask
+    /// most (a density or an emission marched at blocks of points). The general path builds
+    /// three `AxisStencil`s of four weights and slopes per point and copies them around, which
+    /// cost more than the eight reads themselves; here the weights stay in registers and the
+    /// eight cells are read straight from their bricks (one brick for most points, up to eight
+    /// where the stencil crosses brick faces). A point exactly on a cell centre takes the
+    /// general path, which reads that cell alone. Output is component-major, `out[c * n + i]`.
+    fn sample_linear<const W: usize>(&self, xs: &[f64], ys: &[f64], zs: &[f64], out: &mut [f64]) {
+        let n = xs.len();
         let cells = self.shape.cells;
-        let mut unused = [[0.0; 3]; 1];
-        for i in 0..xs.len() {
+        let mut unused = [[0.0; 3]; W];
+        for i in 0..n {
             let Some(u) = self.index_coords(DVec3::new(xs[i], ys[i], zs[i])) else {
-                out[i] = self.background[0];
+                for c in 0..W {
+                    out[c * n + i] = self.background[c];
+                }
                 continue;
             };
             let u = u.to_array();
             if u.iter().all(|&v| v >= 0.0) && (0..3).all(|a| u[a] as i64 as f64 == u[a]) {
-                let mut value = [0.0; 1];
+                let mut value = [0.0; W];
                 let u = DVec3::from_array(u);
-                self.read::<1, false>(Interp::Linear, u, &mut value, &mut unused);
-                out[i] = value[0];
+                self.read::<W, false>(Interp::Linear, u, &mut value, &mut unused);
+                for c in 0..W {
+                    out[c * n + i] = value[c];
+                }
                 continue;
             }
             // The same cell and fraction as `axis_stencil`'s linear rule.
@@ -88,19 +93,22 @@ impl Cache {
                 std::array::from_fn(|a| (u[a].max(0.0) as i64).min(cells[a] as i64 - 2) as usize);
             let t: [f64; 3] = std::array::from_fn(|a| u[a] - cell[a] as f64);
             let [wx, wy, wz] = t.map(|t| [1.0 - t, t]);
-            let mut sample = [0f32; 8];
+            let mut sample = [[0f32; W]; 8];
             if cell.iter().all(|&c| c % BRICK != BRICK - 1) {
                 let brick = [cell[0] / BRICK, cell[1] / BRICK, cell[2] / BRICK];
                 let Some(values) = self.brick(self.shape.brick_index(brick)).values.as_deref()
                 else {
                     // A uniform brick reads its value.
-                    out[i] = self.background[0];
+                    for c in 0..W {
+                        out[c * n + i] = self.background[c];
+                    }
                     continue;
                 };
                 let base = local_index(cell[0] % BRICK, cell[1] % BRICK, cell[2] % BRICK);
                 for (k, s) in sample.iter_mut().enumerate() {
                     let (kx, ky, kz) = (k & 1, (k >> 1) & 1, k >> 2);
-                    *s = values[base + kx + BRICK * (ky + BRICK * kz)];
+                    let at = (base + kx + BRICK * (ky + BRICK * kz)) * W;
+                    s.copy_from_slice(&values[at..at + W]);
                 }
             } else {
                 for (k, s) in sample.iter_mut().enumerate() {
@@ -111,20 +119,27 @@ impl Cache {
                     ];
                     let brick = [c[0] / BRICK, c[1] / BRICK, c[2] / BRICK];
                     let values = self.brick_values(self.shape.brick_index(brick));
-                    *s = values[local_index(c[0] % BRICK, c[1] % BRICK, c[2] % BRICK)];
+                    let at = local_index(c[0] % BRICK, c[1] % BRICK, c[2] % BRICK) * W;
+                    s.copy_from_slice(&values[at..at + W]);
                 }
             }
             // Same terms in the same order as `accumulate`.
-            let mut value = 0.0;
+            let mut value = [0.0; W];
             for kz in 0..2 {
                 for ky in 0..2 {
                     let weight_yz = wy[ky] * wz[kz];
                     for kx in 0..2 {
-                        value += wx[kx] * weight_yz * f64::from(sample[kx + 2 * (ky + 2 * kz)]);
+                        let weight = wx[kx] * weight_yz;
+                        let cell = &sample[kx + 2 * (ky + 2 * kz)];
+                        for c in 0..W {
+                            value[c] += weight * f64::from(cell[c]);
+                        }
                     }
                 }
             }
-            out[i] = value;
+            for c in 0..W {
+                out[c * n + i] = value[c];
+            }
         }
     }
 
@@ -476,8 +491,12 @@ impl GridSource for Cache {
     }
 
     fn sample(&self, interp: Interp, xs: &[f64], ys: &[f64], zs: &[f64], out: &mut [f64]) {
-        if interp == Interp::Linear && self.width == 1 && self.shape.cells.iter().all(|&n| n > 1) {
-            return self.sample_linear_scalar(xs, ys, zs, out);
+        if interp == Interp::Linear && self.shape.cells.iter().all(|&n| n > 1) {
+            match self.width {
+                1 => return self.sample_linear::<1>(xs, ys, zs, out),
+                3 => return self.sample_linear::<3>(xs, ys, zs, out),
+                _ => {}
+            }
         }
         points::values_of(self, self.width, interp, xs, ys, zs, out);
     }

@@ -10,7 +10,9 @@ fn concurrent_lazy_queries_equal_an_eager_fill() {
     let d = busy_domain();
     let eager = scalar_cache(d.clone(), busy_field);
     eager.fill_all();
-    let points = points_in(d.bounds().min, d.bounds().max, 4000);
+    // Points over part of the box, so that the lazy caches leave some bricks unfilled.
+    let bounds = d.bounds();
+    let points = points_in(bounds.min, bounds.min + bounds.size() * 0.6, 4000);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(4)
         .build()
@@ -377,5 +379,74 @@ fn block_writes_equal_cell_by_cell_writes() {
                 }
             }
         }
+    }
+}
+
+#[test]
+fn trilinear_reads_equal_the_general_stencil_bit_for_bit() {
+    // A rotated domain whose ball leaves most bricks empty (skipped), scalar and vector, read
+    // at points spread over and beyond the box, at cell centres (which take the general path
+    // inside the fast one) and on brick faces (stencils reaching two to eight bricks).
+    let d = domain(
+        DVec3::new(-1.0, -0.9, -1.1),
+        DVec3::new(2.0, 1.75, 2.0),
+        DVec3::new(0.2, -0.1, 0.3),
+        1.0 / 24.0,
+    );
+    let ball = move |p: DVec3| (0.5 - (p - DVec3::new(0.1, -0.2, 0.05)).length()).max(0.0);
+    let scalar = scalar_cache(d.clone(), ball);
+    let vector_field = FnField::new(3, move |p, out: &mut [f64]| {
+        let b = ball(p);
+        out.copy_from_slice(&[b, b * p.x + 0.25, -b * p.y]);
+    });
+    let vector = Cache::from_field(
+        d.clone(),
+        3,
+        Arc::new(vector_field),
+        vec![0.0, 0.25, 0.0],
+        "v".into(),
+    )
+    .unwrap();
+    let mut points = points_in(d.bounds().min - 0.1, d.bounds().max + 0.1, 6000);
+    let to_world = |u: DVec3| d.origin + d.rotation * ((u + 0.5) * d.cell);
+    for k in 0..400 {
+        let u = DVec3::new(
+            (k % 20) as f64,
+            ((k / 20) % 20) as f64,
+            (k % 7) as f64 * 3.0,
+        );
+        points.push(to_world(u));
+        // On the face between bricks along each axis.
+        points.push(to_world(DVec3::new(7.5, u.y + 0.3, u.z + 0.6)));
+        points.push(to_world(DVec3::new(u.x + 0.2, 15.5, 7.5)));
+    }
+    for cache in [&scalar, &vector] {
+        cache.fill_all();
+        // Bricks that came out uniform hold no values: the fast path's other branch.
+        let dense = cache.bricks_total() * BRICK_CELLS * cache.width() * 4;
+        assert!(cache.bytes() < dense as u64);
+        let fast = sample(cache, Interp::Linear, &points);
+        let xs: Vec<f64> = points.iter().map(|p| p.x).collect();
+        let ys: Vec<f64> = points.iter().map(|p| p.y).collect();
+        let zs: Vec<f64> = points.iter().map(|p| p.z).collect();
+        let mut general = vec![0.0; fast.len()];
+        crate::grid::points::values_of(
+            cache,
+            cache.width(),
+            Interp::Linear,
+            &xs,
+            &ys,
+            &zs,
+            &mut general,
+        );
+        let differ = fast
+            .iter()
+            .zip(&general)
+            .filter(|(a, b)| a.to_bits() != b.to_bits())
+            .count();
+        assert_eq!(differ, 0, "width {}", cache.width());
+        // The points reach into the ball.
+        let most = fast.iter().fold(0.0f64, |m, &v| m.max(v));
+        assert!(most > 0.3, "{most}");
     }
 }
