@@ -135,6 +135,18 @@ impl BlockBase {
         BlockBase { cell, frac }
     }
 
+    /// The base's lattice cell (modulo 2³²).
+    #[inline(always)]
+    pub fn cell(&self) -> [u32; 3] {
+        self.cell
+    }
+
+    /// The base's position inside its cell, rounded to `f32`.
+    #[inline(always)]
+    pub fn frac(&self) -> [f32; 3] {
+        self.frac
+    }
+
     /// The lattice position of `base + offset`. Only the small offset is carried in `f32`.
     #[inline(always)]
     pub fn locate(&self, offset: [f32; 3]) -> Located<f32> {
