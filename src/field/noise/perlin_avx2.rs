@@ -103,13 +103,23 @@ impl Lattice {
             _mm256_xor_si256(z[1], self.key),
         ];
 
-        let mut ramp = [_mm256_setzero_ps(); 8];
-        for (c, r) in ramp.iter_mut().enumerate() {
-            let (i, j, k) = (c & 1, (c >> 1) & 1, c >> 2);
+        // Corner `i + 2j + 4k`, written out eight times: left as a loop, the corners stayed a
+        // loop, with the ramps kept in memory and the offsets chosen by branches.
+        let d = [lower, upper];
+        let corner = |i: usize, j: usize, k: usize| {
             let h = mix(_mm256_xor_si256(x[i], _mm256_xor_si256(y[j], zk[k])));
-            let pick = |side: usize, axis: usize| if side == 0 { lower[axis] } else { upper[axis] };
-            *r = edge_ramp(h, [pick(i, 0), pick(j, 1), pick(k, 2)]);
-        }
+            edge_ramp(h, [d[i][0], d[j][1], d[k][2]])
+        };
+        let ramp = [
+            corner(0, 0, 0),
+            corner(1, 0, 0),
+            corner(0, 1, 0),
+            corner(1, 1, 0),
+            corner(0, 0, 1),
+            corner(1, 0, 1),
+            corner(0, 1, 1),
+            corner(1, 1, 1),
+        ];
 
         let u = fade(lower[0]);
         let v = fade(lower[1]);
