@@ -7,7 +7,10 @@
 //! the block; that loop is compiled twice, once plain and once with AVX2+FMA enabled, and the
 //! second is chosen at run time when the CPU has them. The compiler then keeps eight `f32`
 //! points per register through hashing, gradient choice and blending, with no table lookups
-//! and no call per point. Lattice spacing is 1: frequency and offsets are applied by the caller.
+//! and no call per point. Perlin values alone, what fills and renders mostly ask for, also have
+//! a loop written with AVX2 intrinsics (`perlin_avx2.rs`) that gives the generic loop's bits
+//! with fewer instructions. Lattice spacing is 1: frequency and offsets are applied by the
+//! caller.
 //!
 //! Amplitudes, for displacement and interval bounds (lattice spacing 1; a noise read at
 //! frequency `f` has slopes `f` times larger). "Bound" is what [`value_range`] and
@@ -120,9 +123,10 @@ enum Build {
     /// Compiled for the baseline instruction set.
     Plain,
     /// The generic loops compiled with AVX2+FMA enabled (only tests ask for it alone).
-    #[cfg_attr(not(test), allow(dead_code))]
+    #[cfg_attr(any(not(test), not(target_arch = "x86_64")), allow(dead_code))]
     Avx2,
     /// As `Avx2`, with the intrinsics loops where a kernel has them (Perlin values).
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     Avx2Intrinsics,
 }
 
