@@ -224,6 +224,9 @@ impl<'p> Evaluator<'p> {
         self.emit_after(program.instrs.len(), &mut next, n, emit);
     }
 
+    // Inlined into the tape loop so that, in its AVX2 build, staging the points and widening
+    // the results use AVX2 too; called on its own, it was compiled for the baseline only.
+    #[inline(always)]
     fn noise(
         &mut self,
         kind: noise::NoiseKind,

@@ -60,6 +60,25 @@ pub(crate) fn edge_gradient<R: Real>(h: u32) -> [R; 3] {
     [component(0, 0), component(1, 1), component(2, 2)]
 }
 
+/// The ramp `g·d` of the edge gradient `g = edge_gradient(h)`, bit for bit as the three
+/// products and two sums would give it, without turning `g` into numbers: a ±1 component
+/// becomes a sign flip of `d`'s component and the zero component the product `0·d` (a zero
+/// carrying `d`'s sign, which a plain `0` would not, and which decides the sign of a ramp
+/// whose other terms are zeros too). Only a NaN `d` may come out with another sign bit.
+#[inline(always)]
+pub(crate) fn edge_ramp<R: Real>(h: u32, d: [R; 3]) -> R {
+    let zero_axis = ((h >> 22) * 3) >> 10;
+    let term = |axis: u32, bit: u32| {
+        let v = d[axis as usize];
+        if zero_axis == axis {
+            v * R::ZERO
+        } else {
+            v.negate_if((h >> bit) & 1 == 1)
+        }
+    };
+    term(0, 0) + term(1, 1) + term(2, 2)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -87,6 +106,56 @@ mod tests {
         for (g, count) in counts {
             assert!((count as f64 - 10_000.0).abs() < 500.0, "{g:?}: {count}");
         }
+    }
+
+    /// The sign-flip ramp is the product ramp to the bit, zeros' signs included, for all twelve
+    /// gradients and offsets of both signs, zeros, subnormals and infinities.
+    #[test]
+    fn edge_ramp_is_the_dot_product_bit_for_bit() {
+        let specials = [
+            0.0f32,
+            -0.0,
+            0.25,
+            -0.25,
+            1.0,
+            -1.0,
+            1e-40,
+            -1e-40,
+            3.0e38,
+            -3.0e38,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+        ];
+        let dot = |g: [f32; 3], d: [f32; 3]| g[0] * d[0] + g[1] * d[1] + g[2] * d[2];
+        let mut hashes = 0;
+        for i in 0..4096u32 {
+            let h = mix(i);
+            hashes += 1;
+            let g: [f32; 3] = edge_gradient(h);
+            let g64: [f64; 3] = edge_gradient(h);
+            for a in specials {
+                for b in specials {
+                    for c in specials {
+                        let d = [a, b, c];
+                        let (want, got) = (dot(g, d), edge_ramp(h, d));
+                        // A NaN ramp (0·∞, ∞ − ∞) must stay NaN; its sign is not specified.
+                        if want.is_nan() {
+                            assert!(got.is_nan(), "{h:#x} {d:?}");
+                            continue;
+                        }
+                        assert_eq!(want.to_bits(), got.to_bits(), "{h:#x} {d:?}");
+                        let d64 = d.map(f64::from);
+                        let want = g64[0] * d64[0] + g64[1] * d64[1] + g64[2] * d64[2];
+                        let got = edge_ramp(h, d64);
+                        assert!(want.is_nan() == got.is_nan(), "{h:#x} {d64:?}");
+                        if !want.is_nan() {
+                            assert_eq!(want.to_bits(), got.to_bits(), "{h:#x} {d64:?}");
+                        }
+                    }
+                }
+            }
+        }
+        assert_eq!(hashes, 4096);
     }
 
     #[test]

@@ -7,7 +7,10 @@
 //! the block; that loop is compiled twice, once plain and once with AVX2+FMA enabled, and the
 //! second is chosen at run time when the CPU has them. The compiler then keeps eight `f32`
 //! points per register through hashing, gradient choice and blending, with no table lookups
-//! and no call per point. Lattice spacing is 1: frequency and offsets are applied by the caller.
+//! and no call per point. Perlin values alone, what fills and renders mostly ask for, also have
+//! a loop written with AVX2 intrinsics (`perlin_avx2.rs`) that gives the generic loop's bits
+//! with fewer instructions. Lattice spacing is 1: frequency and offsets are applied by the
+//! caller.
 //!
 //! Amplitudes, for displacement and interval bounds (lattice spacing 1; a noise read at
 //! frequency `f` has slopes `f` times larger). "Bound" is what [`value_range`] and
@@ -34,6 +37,8 @@
 mod hash;
 mod lattice;
 mod perlin;
+#[cfg(target_arch = "x86_64")]
+mod perlin_avx2;
 mod simplex;
 mod worley;
 
@@ -88,11 +93,51 @@ pub fn eval_f32(
     z: &[f32],
     out: NoiseOutput<'_, f32>,
 ) {
+    eval_f32_built(Build::detect(), kind, seed, base, x, y, z, out)
+}
+
+/// [`eval_f32`] with the build of the block loops chosen by the caller, so tests can compare
+/// the builds on one machine.
+#[allow(clippy::too_many_arguments)]
+fn eval_f32_built(
+    build: Build,
+    kind: NoiseKind,
+    seed: u32,
+    base: [f64; 3],
+    x: &[f32],
+    y: &[f32],
+    z: &[f32],
+    out: NoiseOutput<'_, f32>,
+) {
     let key = hash::seed_key(seed);
     match kind {
-        NoiseKind::Perlin => run_f32::<Perlin>(key, base, x, y, z, out),
-        NoiseKind::Simplex => run_f32::<Simplex>(key, base, x, y, z, out),
-        NoiseKind::Worley => run_f32::<Worley>(key, base, x, y, z, out),
+        NoiseKind::Perlin => run_f32::<Perlin>(build, key, base, x, y, z, out),
+        NoiseKind::Simplex => run_f32::<Simplex>(build, key, base, x, y, z, out),
+        NoiseKind::Worley => run_f32::<Worley>(build, key, base, x, y, z, out),
+    }
+}
+
+/// Which build of the `f32` block loops runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Build {
+    /// Compiled for the baseline instruction set.
+    Plain,
+    /// The generic loops compiled with AVX2+FMA enabled (only tests ask for it alone).
+    #[cfg_attr(any(not(test), not(target_arch = "x86_64")), allow(dead_code))]
+    Avx2,
+    /// As `Avx2`, with the intrinsics loops where a kernel has them (Perlin values).
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+    Avx2Intrinsics,
+}
+
+impl Build {
+    /// The fastest build this CPU runs.
+    fn detect() -> Build {
+        #[cfg(target_arch = "x86_64")]
+        if has_avx2_fma() {
+            return Build::Avx2Intrinsics;
+        }
+        Build::Plain
     }
 }
 
@@ -145,8 +190,16 @@ const SIMPLEX_LIPSCHITZ: f64 = 8.0;
 trait Kernel {
     /// Whether the lattice is the skewed simplex lattice rather than the cube lattice.
     const SKEWED: bool;
+    /// A values-only block loop written with AVX2 intrinsics, where the family has one; it must
+    /// give the generic loop's bits. Called only where the CPU has AVX2 and FMA.
+    #[cfg(target_arch = "x86_64")]
+    const AVX2_VALUES: Option<Avx2Values> = None;
     fn sample<R: Real, const G: bool, const H: bool>(p: Located<R>, key: u32) -> Sample<R>;
 }
+
+/// The signature of an intrinsics values loop: key, block base, offsets, values.
+#[cfg(target_arch = "x86_64")]
+type Avx2Values = unsafe fn(u32, &BlockBase, &[f32], &[f32], &[f32], &mut [f32]);
 
 struct Perlin;
 struct Simplex;
@@ -154,6 +207,8 @@ struct Worley;
 
 impl Kernel for Perlin {
     const SKEWED: bool = false;
+    #[cfg(target_arch = "x86_64")]
+    const AVX2_VALUES: Option<Avx2Values> = Some(perlin_avx2::values);
     #[inline(always)]
     fn sample<R: Real, const G: bool, const H: bool>(p: Located<R>, key: u32) -> Sample<R> {
         perlin::sample::<R, G, H>(p, key)
@@ -257,6 +312,7 @@ fn common_len<T, U>(x: &[T], y: &[T], z: &[T], out: &NoiseOutput<'_, U>) -> usiz
 }
 
 fn run_f32<K: Kernel>(
+    build: Build,
     key: u32,
     base: [f64; 3],
     x: &[f32],
@@ -269,6 +325,7 @@ fn run_f32<K: Kernel>(
     let base = BlockBase::new(base);
     let (x, y, z) = (&x[..n], &y[..n], &z[..n]);
     struct Run<'a, K> {
+        build: Build,
         key: u32,
         base: BlockBase,
         x: &'a [f32],
@@ -278,7 +335,9 @@ fn run_f32<K: Kernel>(
     }
     impl<K: Kernel> BlockRun<f32> for Run<'_, K> {
         fn run<const G: bool, const H: bool>(self, sink: &mut Sink<'_, f32>) {
-            dispatch_f32::<K, G, H>(self.key, &self.base, self.x, self.y, self.z, sink)
+            dispatch_f32::<K, G, H>(
+                self.build, self.key, &self.base, self.x, self.y, self.z, sink,
+            )
         }
     }
     let kernel = std::marker::PhantomData::<K>;
@@ -286,6 +345,7 @@ fn run_f32<K: Kernel>(
         out,
         n,
         Run {
+            build,
             key,
             base,
             x,
@@ -333,6 +393,7 @@ fn has_avx2_fma() -> bool {
 }
 
 fn dispatch_f32<K: Kernel, const G: bool, const H: bool>(
+    build: Build,
     key: u32,
     base: &BlockBase,
     x: &[f32],
@@ -341,11 +402,13 @@ fn dispatch_f32<K: Kernel, const G: bool, const H: bool>(
     sink: &mut Sink<'_, f32>,
 ) {
     #[cfg(target_arch = "x86_64")]
-    if has_avx2_fma() {
+    if build != Build::Plain && has_avx2_fma() {
+        let intrinsics = build == Build::Avx2Intrinsics;
         // SAFETY: the CPU has just been checked for the features this build enables.
-        unsafe { block_f32_avx2::<K, G, H>(key, base, x, y, z, sink) };
+        unsafe { block_f32_avx2::<K, G, H>(intrinsics, key, base, x, y, z, sink) };
         return;
     }
+    let _ = build;
     block_f32::<K, G, H>(key, base, x, y, z, sink)
 }
 
@@ -368,6 +431,7 @@ fn dispatch_f64<K: Kernel, const G: bool, const H: bool>(
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 fn block_f32_avx2<K: Kernel, const G: bool, const H: bool>(
+    intrinsics: bool,
     key: u32,
     base: &BlockBase,
     x: &[f32],
@@ -375,6 +439,11 @@ fn block_f32_avx2<K: Kernel, const G: bool, const H: bool>(
     z: &[f32],
     sink: &mut Sink<'_, f32>,
 ) {
+    if let (false, false, true, Some(values)) = (G, H, intrinsics, K::AVX2_VALUES) {
+        // SAFETY: this function runs only where the CPU has AVX2 and FMA.
+        unsafe { values(key, base, x, y, z, sink.value) };
+        return;
+    }
     block_f32::<K, G, H>(key, base, x, y, z, sink)
 }
 
