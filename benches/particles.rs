@@ -9,7 +9,7 @@
 //!    affine transforms) at the same number of iterations; skipped when flam3 is absent.
 //!
 //! The flame is three xforms — linear, swirl and spherical with 2D pre-transforms — so both
-//! programs evaluate the same maps. The pre-transforms send z to 0, so felt's dots lie in the
+//! programs evaluate the same maps. The post-transforms send z to 0, so felt's dots lie in the
 //! plane z = 0 as flam3's points do.
 //!
 //! Run with `cargo bench --bench particles` (`FELT_BENCH_BIG=0` skips the 80-million run;
@@ -43,13 +43,17 @@ fn maps() -> Vec<CompiledField> {
     XFORMS
         .iter()
         .map(|(name, c, _)| {
-            // Thesis order a b c d | e f g h | k l m n; z is sent to 0, so after the first
-            // step every dot lies in the plane z = 0, as flam3's 2D points do.
+            // Thesis order a b c d | e f g h | k l m n. The 3D variations give points off
+            // the plane (swirl's z is x cos r² − z sin r²), so the post-transform sends z to
+            // 0: every dot lies in the plane z = 0, as flam3's 2D points do.
             let pre = [
                 c[0], c[1], 0.0, c[2], c[3], c[4], 0.0, c[5], 0.0, 0.0, 0.0, 0.0,
             ];
-            let affine = felt::particles::flame::affine_from_coefficients(&pre).unwrap();
-            let f = felt::particles::flame::flame(name, &[], Some(affine), None).unwrap();
+            let flat = [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+            let affine = |c: &[f64]| felt::particles::flame::affine_from_coefficients(c).unwrap();
+            let f =
+                felt::particles::flame::flame(name, &[], Some(affine(&pre)), Some(affine(&flat)))
+                    .unwrap();
             CompiledField::prepared(&f).unwrap()
         })
         .collect()
