@@ -6,20 +6,13 @@ use super::chaos::{self, Map, Settings};
 use super::flame_splat::{SplatInto, splat_flame};
 use super::guide::{self, Guide};
 use super::splat::{Deposit, Kernel, SplatReport, splat};
+use super::tests::in_pool;
 use super::{Particles, flame};
 use crate::field::{CompiledField, Field, MathFn};
 use crate::grid::cache::Cache;
 use crate::grid::domain::Domain;
 use crate::sample::FieldSampler;
 use glam::DVec3;
-
-fn in_pool<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
-    rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .unwrap()
-        .install(f)
-}
 
 /// Three flame maps (linear, swirl, spherical) with 3D pre-transforms, so dots fill a volume.
 fn maps() -> Vec<CompiledField> {

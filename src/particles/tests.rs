@@ -341,7 +341,8 @@ fn particles_outside_the_domain_are_counted_not_splatted() {
     assert!((cache_sum(&cache)[0] - 1.0).abs() < 1e-6);
 }
 
-fn in_pool<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
+/// Runs `f` in a pool of `threads` threads.
+pub(super) fn in_pool<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
