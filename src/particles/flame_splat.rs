@@ -35,9 +35,6 @@ pub struct SplatInto<'a> {
 /// Bricks in a worker's first run of sums; each later run doubles, up to `MOST_PER_RUN`.
 const FIRST_RUN: usize = 16;
 const MOST_PER_RUN: usize = 1024;
-/// A huge page: runs of sums are advised to the kernel as huge-page memory, since a flame's
-/// dots land all over the grid and with 4 KiB pages nearly every dot would miss the TLB.
-const HUGE_PAGE: usize = 2 << 20;
 
 /// One worker's sums of `W` components per cell, brick by brick, in a few long runs of
 /// memory rather than one allocation per brick.
@@ -117,9 +114,7 @@ impl<const W: usize> BrickSums<W> {
             (len * 8) as f64,
             "flame splat sums",
         )?);
-        let run = vec![0i64; len];
-        advise_huge_pages(&run);
-        self.runs.push(run);
+        self.runs.push(vec![0i64; len]);
         self.free = len;
         Ok(())
     }
@@ -186,21 +181,6 @@ impl<const W: usize> BrickSums<W> {
             }
         }
         Ok(())
-    }
-}
-
-/// Asks the kernel to back the whole huge pages inside `run` with huge pages.
-fn advise_huge_pages(run: &[i64]) {
-    let begin = run.as_ptr() as usize;
-    let end = begin + std::mem::size_of_val(run);
-    let first = begin.next_multiple_of(HUGE_PAGE);
-    if end > first + HUGE_PAGE {
-        let len = (end - first) / HUGE_PAGE * HUGE_PAGE;
-        // SAFETY: the range lies inside memory this process owns; the advice changes how the
-        // kernel backs it, never its contents. A refusal only loses the speed-up.
-        unsafe {
-            libc::madvise(first as *mut libc::c_void, len, libc::MADV_HUGEPAGE);
-        }
     }
 }
 
