@@ -293,7 +293,7 @@ impl Gather {
     }
 }
 
-/// Runs one block's chains, writing its dots; returns the restarts.
+/// Runs one block's chains, handing each stamped dot to `sink`; returns the restarts.
 ///
 /// Lane state is kept as structure of arrays and gathered straight into the evaluator's
 /// input blocks, map by map.
