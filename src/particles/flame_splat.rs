@@ -13,7 +13,7 @@
 
 use super::chaos::{self, Report, Settings, Sink};
 use super::guide::Guide;
-use super::splat::{Indexer, Kernel, Landing, SplatReport, Target, nearest_share, shares};
+use super::splat::{Indexer, Kernel, Landing, SplatReport, Target, check_shape, fixed, shares};
 use super::splat_bins::scale_for_magnitude;
 use crate::budget::Reservation;
 use crate::failure::{Failure, Outcome};
@@ -134,7 +134,7 @@ impl<const W: usize> BrickSums<W> {
             let at = start + local * W;
             let sums = &mut self.runs[run][at..at + W];
             for c in 0..W {
-                sums[c] += nearest_share(scaled[c]);
+                sums[c] += fixed(scaled[c]);
             }
             return Ok(());
         }
@@ -288,7 +288,7 @@ pub fn splat_flame(
         (color_into, &color_indexer, 3),
     ] {
         if let (Some(into), Some(indexer)) = (into, indexer) {
-            check_shape(into, indexer, width)?;
+            check_shape(width, into.background, into.previous, indexer)?;
         }
     }
     let bricks_of = |i: &Indexer| i.cells.map(|c| c.div_ceil(BRICK));
@@ -397,24 +397,6 @@ pub fn splat_flame(
             restarts: restarts.iter().sum(),
         },
     ))
-}
-
-/// Fails when a cache cannot take a `width`-component splat on the indexer's cells.
-fn check_shape(into: &SplatInto, indexer: &Indexer, width: usize) -> Outcome<()> {
-    if into.background.len() != width {
-        return Err(Failure::new(format!(
-            "a {width}-component splat cannot go into a cache of {} components",
-            into.background.len()
-        )));
-    }
-    if let Some(old) = into.previous
-        && (old.width() != width || old.resolution() != indexer.cells)
-    {
-        return Err(Failure::new(
-            "the cache splatted onto has another shape than the splat's domain",
-        ));
-    }
-    Ok(())
 }
 
 /// A cache's new state from components `first..first + W` of the merged sums (bricks sorted),

@@ -152,10 +152,10 @@ impl Indexer {
 
 /// Rounds to the nearest integer, halves away from zero: a conversion, not a library call.
 /// Every value rounded here is at most 2⁶² in magnitude (the scale sees to it), where the
-/// processor's truncating conversion is exact; it skips the NaN and range checks of `as`, which
-/// took most of a splat's arithmetic.
+/// processor's truncating conversion is exact; it skips the NaN and range checks of `as`,
+/// several instructions for each of a dot's shares.
 #[inline]
-fn fixed(x: f64) -> i64 {
+pub(super) fn fixed(x: f64) -> i64 {
     let rounded = x + 0.5f64.copysign(x);
     #[cfg(target_arch = "x86_64")]
     {
@@ -190,7 +190,7 @@ pub(super) fn accumulate<const W: usize>(
         let v = entry.value.map(|x| x as f64);
         if indexer.kernel == Kernel::Nearest {
             for c in 0..W {
-                acc[at * W + c] += nearest_share(v[c] * scale);
+                acc[at * W + c] += fixed(v[c] * scale);
             }
             continue;
         }
@@ -248,12 +248,6 @@ pub(super) fn shares(scaled: f64, weights: &[f64; 7], mut add: impl FnMut(usize,
     add(7, rest);
 }
 
-/// The one share of a nearest-cell splat.
-#[inline]
-pub(super) fn nearest_share(scaled: f64) -> i64 {
-    fixed(scaled)
-}
-
 /// The interior of a scratch accumulator, the brick's own cells in brick order.
 pub(super) fn interior<const W: usize>(acc: &[i64], out: &mut [i64]) {
     for z in 0..BRICK {
@@ -276,21 +270,8 @@ pub fn splat(
     previous: Option<&Cache>,
 ) -> Outcome<(Cache, SplatReport)> {
     let width = deposit.width();
-    if background.len() != width {
-        return Err(Failure::new(format!(
-            "a {}-component attribute cannot be splatted into a cache of {} components",
-            width,
-            background.len()
-        )));
-    }
     let indexer = Indexer::new(domain, kernel)?;
-    if let Some(old) = previous
-        && (old.width() != width || old.resolution() != indexer.cells)
-    {
-        return Err(Failure::new(
-            "the cache splatted onto has another shape than the splat's domain",
-        ));
-    }
+    check_shape(width, background, previous, &indexer)?;
     let positions = &particles.positions;
     match deposit {
         Deposit::One => run::<1>(&indexer, positions, |_| [1.0], domain, background, previous),
@@ -304,6 +285,30 @@ pub fn splat(
         ),
         Deposit::Vector(v) => run::<3>(&indexer, positions, |i| v[i], domain, background, previous),
     }
+}
+
+/// Fails when a cache of `background.len()` components, holding `previous`, cannot take a
+/// `width`-component splat on the indexer's cells.
+pub(super) fn check_shape(
+    width: usize,
+    background: &[f64],
+    previous: Option<&Cache>,
+    indexer: &Indexer,
+) -> Outcome<()> {
+    if background.len() != width {
+        return Err(Failure::new(format!(
+            "a {width}-component value cannot be splatted into a cache of {} components",
+            background.len()
+        )));
+    }
+    if let Some(old) = previous
+        && (old.width() != width || old.resolution() != indexer.cells)
+    {
+        return Err(Failure::new(
+            "the cache splatted onto has another shape than the splat's domain",
+        ));
+    }
+    Ok(())
 }
 
 fn run<const W: usize>(
