@@ -164,6 +164,18 @@ fn the_count_equals_the_stored_splat_bit_for_bit_and_the_colour_to_rounding() {
         // The fused total is the integer sum itself: exactly the dots inside.
         assert_eq!(fused_report.total[0], report.splatted as f64);
         assert_eq!(bits(&fused_count), bits(&count), "{kernel:?}");
+        // Without a colour cache the count has a table of its own: the same bits.
+        let d = domain();
+        let (alone, _) = splat_flame(
+            &guides(),
+            DOTS,
+            5,
+            &settings(&fields, None),
+            Some(&into(&d, kernel, &[0.25], Some(&earlier))),
+            None,
+        )
+        .unwrap();
+        assert_eq!(bits(&alone[0].0), bits(&count), "{kernel:?}");
         let cells: Vec<_> = color.cells().collect();
         let fused_cells: Vec<_> = fused_color.cells().collect();
         assert_eq!(cells.len(), fused_cells.len());
