@@ -13,7 +13,8 @@
 //! plane z = 0 as flam3's points do.
 //!
 //! Run with `cargo bench --bench particles` (`FELT_BENCH_BIG=0` skips the 80-million run;
-//! `FELT_BENCH_ONLY=rates`, `end` or `flam3` runs one of the three parts, for profiling).
+//! `FELT_BENCH_ONLY=rates`, `end` or `flam3` runs one of the three parts, and `felt-nearest`
+//! felt's side of the flam3 comparison alone, for profiling).
 
 use felt::field::{CompiledField, Field};
 use felt::grid::cache::Cache;
@@ -97,16 +98,16 @@ fn pool<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
         .install(f)
 }
 
-/// A 4 × 4 square of `cells` × `cells` cells around the flame, `layers` cells deep (a multiple
-/// of 8). The flame lies in the plane z = 0, placed inside a layer of bricks (a trilinear
-/// stencil there stays in one brick, as flam3's histogram is one layer), not on a brick face.
-fn domain(cells: usize, layers: usize) -> Domain {
-    let side = 4.0;
-    let cell = side / cells as f64;
+/// A frame 4 units wide, centred on the origin as flam3's camera is, of `width` × `height`
+/// cells, `layers` cells deep (a multiple of 8). The flame lies in the plane z = 0, placed
+/// inside a layer of bricks (a trilinear stencil there stays in one brick, as flam3's
+/// histogram is one layer), not on a brick face.
+fn domain(width: usize, height: usize, layers: usize) -> Domain {
+    let cell = 4.0 / width as f64;
     let below = (8 * (layers / 16)) as f64 + 3.5;
     Domain::with_cells(
-        DVec3::new(-2.0, -2.0, -below * cell),
-        DVec3::new(side, side, layers as f64 * cell),
+        DVec3::new(-2.0, -(height as f64) * cell / 2.0, -below * cell),
+        DVec3::new(4.0, height as f64 * cell, layers as f64 * cell),
         DVec3::ZERO,
         cell,
         cell,
@@ -177,7 +178,7 @@ fn rates() {
         "| threads | generated (M dots/s) | per CPU-second (M) | splatted, trilinear (M dots/s) | per CPU-second (M) | splatted, nearest (M dots/s) | made and splatted as made, trilinear (M dots/s) | per CPU-second (M) |"
     );
     println!("|---|---|---|---|---|---|---|---|");
-    let d = domain(512, 8);
+    let d = domain(512, 512, 8);
     for threads in [1, 2] {
         let (dots, gen_s, gen_cpu) = pool(threads, || {
             let (t, cpu) = (Instant::now(), cpu_seconds(false));
@@ -226,7 +227,7 @@ fn rates() {
 fn end_to_end(dots: usize) {
     let fields = maps();
     let cpu = cpu_seconds(false);
-    let d = domain(768, 192);
+    let d = domain(768, 768, 192);
     let t = Instant::now();
     let (count, color) = made_and_splatted(&fields, dots, &d, Kernel::Trilinear);
     let made = t.elapsed().as_secs_f64();
@@ -326,7 +327,8 @@ fn against_flam3() {
     );
     println!("|---|---|---|---|---|---|---|---|---|---|");
     let fields = maps();
-    let d = domain(640, 8);
+    // The cells of flam3's picture: dots outside it are dropped by both programs.
+    let d = domain(width, height, 8);
     for threads in [1, 2] {
         let (t, cpu) = (Instant::now(), cpu_seconds(true));
         let out = Command::new("flam3-render")
@@ -391,5 +393,21 @@ fn main() {
     }
     if part("flam3") {
         against_flam3();
+    }
+    // Not part of the tables: felt's side of the flam3 comparison alone (nearest, one pass
+    // on the current pool), for profiling.
+    if only.as_deref() == Some("felt-nearest") {
+        let (t, cpu) = (Instant::now(), cpu_seconds(false));
+        made_and_splatted(
+            &maps(),
+            40 * 640 * 360,
+            &domain(640, 360, 8),
+            Kernel::Nearest,
+        );
+        println!(
+            "felt, nearest, 9.2 M iterations: {:.3} s wall, {:.3} CPU-s",
+            t.elapsed().as_secs_f64(),
+            cpu_seconds(false) - cpu
+        );
     }
 }

@@ -32,9 +32,10 @@ pub struct SplatInto<'a> {
     pub previous: Option<&'a Cache>,
 }
 
-/// Bricks in a worker's first run of sums; each later run doubles, up to `MOST_PER_RUN`.
-const FIRST_RUN: usize = 16;
-const MOST_PER_RUN: usize = 1024;
+/// Bricks in each run of sums: a power of two, so a brick's place in the runs is a shift and
+/// a mask of its number rather than a lookup. Only the pages a dot reaches are ever touched,
+/// so a run's untouched tail costs address space, not memory.
+const RUN_BRICKS: usize = 64;
 
 /// One worker's sums of `W` components per cell, brick by brick, in a few long runs of
 /// memory rather than one allocation per brick.
@@ -45,8 +46,6 @@ struct BrickSums<const W: usize> {
     /// The bricks with sums, in the order they were reached: brick index, run, start in run.
     bricks: Vec<(usize, u32, u32)>,
     runs: Vec<Vec<i64>>,
-    /// Cells of the last run not yet given to a brick.
-    free: usize,
     memory: Vec<Reservation>,
     outside: u64,
 }
@@ -67,7 +66,6 @@ impl<const W: usize> BrickSums<W> {
             slots: vec![0; total],
             bricks: Vec::new(),
             runs: Vec::new(),
-            free: 0,
             memory: vec![table],
             outside: 0,
         })
@@ -86,37 +84,36 @@ impl<const W: usize> BrickSums<W> {
     /// Where brick `b`'s sums are (run, start), giving it zeroed sums when it has none.
     #[inline]
     fn place(&mut self, b: usize) -> Outcome<(usize, usize)> {
-        let s = self.slots[b];
+        let s = self.slots[b] as usize;
         if s != 0 {
-            let (_, run, start) = self.bricks[s as usize - 1];
-            return Ok((run as usize, start as usize));
+            return Ok(Self::run_and_start(s - 1));
         }
-        if self.free == 0 {
-            self.grow()?;
+        self.give_sums(b)
+    }
+
+    /// The run and start of the `s`-th brick reached.
+    #[inline]
+    fn run_and_start(s: usize) -> (usize, usize) {
+        (s / RUN_BRICKS, (s % RUN_BRICKS) * Self::BRICK_SUMS)
+    }
+
+    /// Gives brick `b` the next free sums, starting a new run of zeroed sums when the last
+    /// one is full.
+    #[cold]
+    fn give_sums(&mut self, b: usize) -> Outcome<(usize, usize)> {
+        let s = self.bricks.len();
+        let (run, start) = Self::run_and_start(s);
+        if run == self.runs.len() {
+            let len = RUN_BRICKS * Self::BRICK_SUMS;
+            self.memory.push(crate::budget::reserve(
+                (len * 8) as f64,
+                "flame splat sums",
+            )?);
+            self.runs.push(vec![0i64; len]);
         }
-        let run = self.runs.len() - 1;
-        let start = self.runs[run].len() - self.free;
-        self.free -= Self::BRICK_SUMS;
         self.bricks.push((b, run as u32, start as u32));
         self.slots[b] = self.bricks.len() as u32;
         Ok((run, start))
-    }
-
-    /// A new run of zeroed sums, twice the last one's length up to `MOST_PER_RUN` bricks.
-    #[cold]
-    fn grow(&mut self) -> Outcome<()> {
-        let bricks = match self.runs.last() {
-            None => FIRST_RUN,
-            Some(r) => (2 * r.len() / Self::BRICK_SUMS).min(MOST_PER_RUN),
-        };
-        let len = bricks * Self::BRICK_SUMS;
-        self.memory.push(crate::budget::reserve(
-            (len * 8) as f64,
-            "flame splat sums",
-        )?);
-        self.runs.push(vec![0i64; len]);
-        self.free = len;
-        Ok(())
     }
 
     /// Brick `s`'s sums, for the `s`-th brick reached.
