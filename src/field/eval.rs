@@ -14,7 +14,7 @@
 //! the processor has it (checked once).
 
 use crate::field::linalg::pseudo_inverse;
-use crate::field::node::{BinOp, MathFn};
+use crate::field::node::{BinOp, MathFn, sin_cos};
 use crate::field::noise::{self, NoiseOutput};
 use crate::field::program::{Instr, Program, Reg, UNUSED};
 use crate::sample::BLOCK;
@@ -170,6 +170,14 @@ impl<'p> Evaluator<'p> {
         for (step, instr) in program.instrs.iter().enumerate() {
             match instr {
                 Instr::Unary { f, dst, a } => unary(&mut self.regs, *f, *dst, *a, n),
+                Instr::SinCos { a, sin, cos } => {
+                    let (a, sin, cos) = (*a as usize, *sin as usize, *cos as usize);
+                    for i in 0..n {
+                        let (s, c) = sin_cos(self.regs[a * BLOCK + i]);
+                        self.regs[sin * BLOCK + i] = s;
+                        self.regs[cos * BLOCK + i] = c;
+                    }
+                }
                 Instr::Binary { op, dst, a, b } => binary(&mut self.regs, *op, *dst, *a, *b, n),
                 Instr::Select { dst, c, a, b } => {
                     let (d, [c, a, b]) = lanes(&mut self.regs, *dst, [*c, *a, *b], n);

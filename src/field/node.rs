@@ -47,6 +47,27 @@ pub enum MathFn {
     Step,
 }
 
+/// `(x.sin(), x.cos())` in one call where the C library has `sincos`, which shares the
+/// argument reduction of the two (glibc's gives the bits of its `sin` and `cos`).
+#[inline]
+pub fn sin_cos(x: f64) -> (f64, f64) {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    {
+        unsafe extern "C" {
+            fn sincos(x: f64, sin: *mut f64, cos: *mut f64);
+        }
+        let (mut s, mut c) = (0.0, 0.0);
+        // SAFETY: glibc's libm, which std links, defines `sincos`; it writes the two
+        // pointers, which point at live locals.
+        unsafe { sincos(x, &mut s, &mut c) };
+        (s, c)
+    }
+    #[cfg(not(all(target_os = "linux", target_env = "gnu")))]
+    {
+        (x.sin(), x.cos())
+    }
+}
+
 impl MathFn {
     pub fn apply(self, x: f64) -> f64 {
         match self {

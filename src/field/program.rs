@@ -56,6 +56,12 @@ pub enum Instr {
         m: [Reg; 9],
         outs: [Reg; 9],
     },
+    /// The sine and cosine of one register, which one library call gives together.
+    SinCos {
+        a: Reg,
+        sin: Reg,
+        cos: Reg,
+    },
 }
 
 /// A compiled field: registers 0, 1, 2 hold the point's x, y, z; `constants` are filled once
@@ -139,26 +145,40 @@ impl Program {
         let mut instrs = Vec::new();
         let mut grid_scratch = 0;
         let mut released: Vec<Index> = Vec::new();
+        let partner = sin_cos_pairs(insts);
         for (i, inst) in insts.iter().enumerate() {
             let instr = match inst {
                 Inst::X | Inst::Y | Inst::Z | Inst::Const(_) | Inst::Output(..) => continue,
+                // The second of a sine and cosine pair was computed with the first.
+                Inst::Unary(_, _) if partner[i].is_some_and(|p| (p as usize) < i) => None,
+                Inst::Unary(f, [a]) if partner[i].is_some() => {
+                    let a = reg(&reg_of, *a);
+                    let (mine, theirs) = (allocate(&mut free), allocate(&mut free));
+                    reg_of[i] = Some(mine);
+                    reg_of[partner[i].expect("paired") as usize] = Some(theirs);
+                    let (sin, cos) = match f {
+                        MathFn::Sin => (mine, theirs),
+                        _ => (theirs, mine),
+                    };
+                    Some(Instr::SinCos { a, sin, cos })
+                }
                 Inst::Unary(f, [a]) => {
                     let a = reg(&reg_of, *a);
                     let dst = allocate(&mut free);
                     reg_of[i] = Some(dst);
-                    Instr::Unary { f: *f, dst, a }
+                    Some(Instr::Unary { f: *f, dst, a })
                 }
                 Inst::Binary(op, [a, b]) => {
                     let (a, b) = (reg(&reg_of, *a), reg(&reg_of, *b));
                     let dst = allocate(&mut free);
                     reg_of[i] = Some(dst);
-                    Instr::Binary { op: *op, dst, a, b }
+                    Some(Instr::Binary { op: *op, dst, a, b })
                 }
                 Inst::Select([c, a, b]) => {
                     let (c, a, b) = (reg(&reg_of, *c), reg(&reg_of, *a), reg(&reg_of, *b));
                     let dst = allocate(&mut free);
                     reg_of[i] = Some(dst);
-                    Instr::Select { dst, c, a, b }
+                    Some(Instr::Select { dst, c, a, b })
                 }
                 Inst::Kernel(kernel, args) => {
                     let arg_regs: Vec<Reg> = args.iter().map(|&a| reg(&reg_of, a)).collect();
@@ -170,10 +190,10 @@ impl Program {
                             reg_of[out as usize] = Some(r);
                         }
                     }
-                    kernel_instr(kernel, &arg_regs, outs, &mut grid_scratch)
+                    Some(kernel_instr(kernel, &arg_regs, outs, &mut grid_scratch))
                 }
             };
-            instrs.push(instr);
+            instrs.extend(instr);
             // Operands whose last reader this was go back to the pool; inputs and constants
             // keep their registers. Freed only after the destination was taken, so a
             // destination never aliases an operand.
@@ -215,6 +235,27 @@ impl Program {
     }
 }
 
+/// For each instruction, the other of a sine and a cosine of the same value, when the tape
+/// has both (hash-consing leaves at most one of each per operand).
+fn sin_cos_pairs(insts: &[Inst]) -> Vec<Option<Index>> {
+    let mut partner = vec![None; insts.len()];
+    let mut sine_of: Vec<Option<Index>> = vec![None; insts.len()];
+    for (i, inst) in insts.iter().enumerate() {
+        if let Inst::Unary(MathFn::Sin, [a]) = inst {
+            sine_of[*a as usize] = Some(i as Index);
+        }
+    }
+    for (j, inst) in insts.iter().enumerate() {
+        if let Inst::Unary(MathFn::Cos, [a]) = inst
+            && let Some(i) = sine_of[*a as usize]
+        {
+            partner[i as usize] = Some(j as Index);
+            partner[j] = Some(i);
+        }
+    }
+    partner
+}
+
 /// The instruction of one kernel, reading `args` and writing `outs`.
 fn kernel_instr(kernel: &Kernel, args: &[Reg], outs: Vec<Reg>, grid_scratch: &mut usize) -> Instr {
     let at = || [args[0], args[1], args[2]];
@@ -253,6 +294,7 @@ impl Instr {
             Instr::Noise { outs, .. } => outs.to_vec(),
             Instr::Grid { outs, .. } => outs.clone(),
             Instr::PseudoInverse { outs, .. } => outs.to_vec(),
+            Instr::SinCos { sin, cos, .. } => vec![*sin, *cos],
         }
     }
 }

@@ -81,7 +81,7 @@ pub(super) const PADDED: usize = PAD * PAD * PAD;
 
 /// Where a particle lands: the first cell of its stencil, the step (0 or 1) to the second
 /// cell along each axis, and the fraction of the value that goes to the second.
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Landing {
     pub cell: [usize; 3],
     pub step: [usize; 3],
@@ -93,6 +93,9 @@ pub(super) struct Landing {
 pub(super) struct Indexer {
     origin: DVec3,
     to_index: DMat3,
+    /// The diagonal of `to_index` when the domain is not rotated: one product per axis
+    /// instead of three, with the same landing (the dropped terms are zeros).
+    axis_scale: Option<DVec3>,
     pub cells: [usize; 3],
     limit: [f64; 3],
     pub kernel: Kernel,
@@ -106,18 +109,32 @@ impl Indexer {
         Ok(Indexer {
             origin: domain.origin,
             to_index: DMat3::from_diagonal(DVec3::ONE / domain.cell) * domain.rotation.transpose(),
+            axis_scale: (domain.rotation == DMat3::IDENTITY).then(|| DVec3::ONE / domain.cell),
             cells,
             limit: cells.map(|n| n as f64),
             kernel,
         })
     }
 
+    /// The same indexer, landing every particle through the full matrix.
+    #[cfg(test)]
+    pub(super) fn through_the_matrix(self) -> Indexer {
+        Indexer {
+            axis_scale: None,
+            ..self
+        }
+    }
+
     /// Where a particle at `p` lands, or `None` outside the domain (NaN included). Floors are
     /// truncations of positive numbers: without SSE4.1 `f64::floor` is a library call.
     #[inline]
     pub fn land(&self, p: [f32; 3]) -> Option<Landing> {
-        let u = (self.to_index * (DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) - self.origin))
-            .to_array();
+        let offset = DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) - self.origin;
+        let u = match self.axis_scale {
+            Some(scale) => scale * offset,
+            None => self.to_index * offset,
+        }
+        .to_array();
         let inside = (u[0] >= 0.0 && u[0] < self.limit[0])
             & (u[1] >= 0.0 && u[1] < self.limit[1])
             & (u[2] >= 0.0 && u[2] < self.limit[2]);

@@ -205,6 +205,53 @@ fn folding_a_math_fn_gives_the_tape_value() {
 }
 
 #[test]
+fn a_sine_and_cosine_of_one_value_run_as_one_instruction_with_the_folded_values() {
+    use crate::field::program::Instr;
+    let (x, y) = (node::position(0), node::position(1));
+    let r = node::binary(BinOp::Mul, x.clone(), y.clone());
+    let s = node::binary(BinOp::Add, x.clone(), y);
+    // One pair with the cosine first in the tape and one with the sine first; a lone sine
+    // stays as it is.
+    let roots = [
+        node::unary(MathFn::Cos, r.clone()),
+        node::unary(MathFn::Sin, r),
+        node::unary(MathFn::Sin, s.clone()),
+        node::unary(MathFn::Cos, s),
+        node::unary(MathFn::Sin, x),
+    ];
+    let program = Program::compile(&roots);
+    let count = |f: fn(&Instr) -> bool| program.instrs.iter().filter(|i| f(i)).count();
+    assert_eq!(count(|i| matches!(i, Instr::SinCos { .. })), 2);
+    assert_eq!(count(|i| matches!(i, Instr::Unary { .. })), 1);
+    let mut rng = Rng(11);
+    let mut points: Vec<[f64; 3]> = SPECIAL.iter().map(|&v| [v, 1.0, 0.0]).collect();
+    points.extend((0..3000).map(|_| {
+        let scale = 10f64.powi(rng.below(12) as i32 - 3);
+        [rng.range(-scale, scale), rng.range(-2.0, 2.0), 0.0]
+    }));
+    let values = tape(&roots, &points, Precision::Double);
+    let folded = |m: MathFn, v: f64| node::unary(m, node::constant(v)).constant().unwrap();
+    for (i, p) in points.iter().enumerate() {
+        let (r, s) = (p[0] * p[1], p[0] + p[1]);
+        let expected = [
+            (MathFn::Cos, r),
+            (MathFn::Sin, r),
+            (MathFn::Sin, s),
+            (MathFn::Cos, s),
+            (MathFn::Sin, p[0]),
+        ];
+        for (root, (m, v)) in expected.into_iter().enumerate() {
+            assert!(
+                same(values[root][i], folded(m, v)),
+                "{m:?}({v:e}): tape {:e}, folded {:e}",
+                values[root][i],
+                folded(m, v)
+            );
+        }
+    }
+}
+
+#[test]
 fn folding_a_binary_op_gives_the_tape_value() {
     let (x, y) = (node::position(0), node::position(1));
     let pairs: Vec<[f64; 3]> = SPECIAL
