@@ -333,6 +333,7 @@ pub(super) fn run_block(
     let mut displace = settings.displace.map(|f| f.evaluator());
     let mut tint = settings.color.map(|f| f.evaluator());
     let offset = guide.offset.to_array();
+    let identity = guide.is_identity();
     let quota: Vec<usize> = (0..lanes)
         .map(|l| chain.min(block.dots - l * chain))
         .collect();
@@ -406,7 +407,12 @@ pub(super) fn run_block(
             if warm[l] <= settings.skip {
                 continue;
             }
-            let world = guide.place(DVec3::from_array(p));
+            // Points here are finite, where an identity guide's `place` only adds +0.
+            let world = if identity {
+                DVec3::from_array(p) + 0.0
+            } else {
+                guide.place(DVec3::from_array(p))
+            };
             sink.dot(
                 l,
                 stamped[l],

@@ -27,6 +27,15 @@ impl Guide {
     pub fn place(&self, p: DVec3) -> DVec3 {
         self.position + (self.normal * p.x + self.right * p.y + self.tangent * p.z) * self.scale
     }
+
+    /// Does `place` leave finite points where they are (up to the sign of zero)? For such a
+    /// guide `place(p)` is `p + 0`, bit for bit: the frame's zero terms add zeros, the scale
+    /// multiplies by one and the position adds +0, which turns −0 into +0.
+    pub fn is_identity(&self) -> bool {
+        self.position == DVec3::ZERO
+            && (self.normal, self.right, self.tangent) == (DVec3::X, DVec3::Y, DVec3::Z)
+            && self.scale == 1.0
+    }
 }
 
 fn vector(v: [f32; 3]) -> DVec3 {

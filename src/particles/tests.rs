@@ -567,3 +567,31 @@ fn tone_maps_scale_by_one_factor() {
     assert!((4.0 * f - (9.0f64).log10() / 2.0).abs() < 1e-6);
     assert_eq!(m.factor([0.0; 3]), 0.0);
 }
+
+#[test]
+fn an_identity_guide_places_finite_points_at_themselves_plus_zero() {
+    let identity = guides_at(&[[0.0; 3]])[0];
+    assert!(identity.is_identity());
+    let values = [0.0, -0.0, 1.5, -2.25, 1e-300, -1e-310, 1e10, -1e10, 3.0e-5];
+    for &x in &values {
+        for &y in &values {
+            for &z in &values {
+                let p = glam::DVec3::new(x, y, z);
+                let (placed, shortcut) = (identity.place(p), p + 0.0);
+                assert_eq!(
+                    placed.to_array().map(f64::to_bits),
+                    shortcut.to_array().map(f64::to_bits),
+                    "{p:?}"
+                );
+            }
+        }
+    }
+    // Any change of frame, scale or position is not the identity.
+    let mut moved = identity;
+    moved.position.x = 1e-9;
+    let mut scaled = identity;
+    scaled.scale = 2.0;
+    let mut turned = identity;
+    turned.right = glam::DVec3::new(0.0, 0.0, 1.0);
+    assert!(!moved.is_identity() && !scaled.is_identity() && !turned.is_identity());
+}
