@@ -1,15 +1,15 @@
 //! Splatting a flame as it is made: the chaos game of `chaos`, with every dot added straight
 //! into the fixed-point sums of a count cache and a colour cache, so no dot is ever stored.
-//! Eighty million dots take the memory of the bricks they reach, not 1.9 GiB of dots.
+//! Eighty million dots take the memory of the brick layers they reach, not 1.9 GiB of dots.
 //!
-//! The key decision: each worker thread keeps its own sparse table of brick sums, and the
-//! tables are added together at the end. Integer addition is exact and order-free, so which
-//! worker adds which block's dots does not matter: the caches are bit-identical for any thread
-//! count. The count is also bit-identical to `splat` of the stored dots, since its fixed-point
-//! scale (from the number of dots) and each dot's shares are the same. The colour's scale comes
-//! from a bound on the dots' colours (the map colours and the colour field's range) rather than
-//! from their sum, which only a stored set can take, so a colour cell may differ from the
-//! stored path's in its last bit.
+//! The key decision: each worker thread keeps its own sparse table of sums, brick layer by
+//! brick layer, and the tables are added together at the end. Integer addition is exact and
+//! order-free, so which worker adds which block's dots does not matter: the caches are
+//! bit-identical for any thread count. The count is also bit-identical to `splat` of the
+//! stored dots, since its fixed-point scale (from the number of dots) and each dot's shares
+//! are the same. The colour's scale comes from a bound on the dots' colours (the map colours
+//! and the colour field's range) rather than from their sum, which only a stored set can take,
+//! so a colour cell may differ from the stored path's in its last bit.
 
 use super::chaos::{self, Report, Settings, Sink};
 use super::guide::Guide;
@@ -32,102 +32,114 @@ pub struct SplatInto<'a> {
     pub previous: Option<&'a Cache>,
 }
 
-/// Bricks in each run of sums: a power of two, so a brick's place in the runs is a shift and
+/// Cells in one layer of a brick (8 × 8 cells at one z): the unit in which sums are kept.
+/// A flat or thin flame reaches one or two layers of each brick it crosses, so keeping whole
+/// bricks would spread its sums over four times the pages (and TLB entries) it needs.
+const LAYER_CELLS: usize = BRICK * BRICK;
+/// Layers in each run of sums: a power of two, so a layer's place in the runs is a shift and
 /// a mask of its number rather than a lookup. Only the pages a dot reaches are ever touched,
 /// so a run's untouched tail costs address space, not memory.
-const RUN_BRICKS: usize = 64;
+const RUN_LAYERS: usize = 512;
 
-/// One worker's sums of `W` components per cell, brick by brick, in a few long runs of
-/// memory rather than one allocation per brick.
-struct BrickSums<const W: usize> {
-    strides: [usize; 3],
-    /// Per brick of the grid: 0 when it has no sums yet, else its place in `bricks` plus one.
+/// One worker's sums of `W` components per cell, brick layer by brick layer, in a few long
+/// runs of memory rather than one allocation per layer.
+struct LayerSums<const W: usize> {
+    /// Brick columns along x, and x × y (layer `(bx, by, z)` is `bx + bx_count·by + columns·z`).
+    row: usize,
+    columns: usize,
+    /// Per layer of the grid: 0 when it has no sums yet, else its place in `layers` plus one.
     slots: Vec<u32>,
-    /// The bricks with sums, in the order they were reached: brick index, run, start in run.
-    bricks: Vec<(usize, u32, u32)>,
+    /// The layers with sums, in the order they were reached.
+    layers: Vec<usize>,
     runs: Vec<Vec<i64>>,
     memory: Vec<Reservation>,
     outside: u64,
 }
 
-impl<const W: usize> BrickSums<W> {
-    const BRICK_SUMS: usize = BRICK_CELLS * W;
+impl<const W: usize> LayerSums<W> {
+    const LAYER_SUMS: usize = LAYER_CELLS * W;
 
-    fn new(counts: [usize; 3]) -> Outcome<BrickSums<W>> {
-        let total: usize = counts.iter().product();
+    /// Sums for a grid of `cells`.
+    fn new(cells: [usize; 3]) -> Outcome<LayerSums<W>> {
+        let (row, column) = (cells[0].div_ceil(BRICK), cells[1].div_ceil(BRICK));
+        let total = row * column * cells[2];
         if total >= u32::MAX as usize {
             return Err(Failure::new(
-                "a flame splat takes a grid of fewer than 2^32 bricks",
+                "a flame splat takes a grid of fewer than 2^32 brick layers",
             ));
         }
-        let table = crate::budget::reserve((total * 4) as f64, "flame splat brick table")?;
-        Ok(BrickSums {
-            strides: [1, counts[0], counts[0] * counts[1]],
+        let table = crate::budget::reserve((total * 4) as f64, "flame splat layer table")?;
+        Ok(LayerSums {
+            row,
+            columns: row * column,
             slots: vec![0; total],
-            bricks: Vec::new(),
+            layers: Vec::new(),
             runs: Vec::new(),
             memory: vec![table],
             outside: 0,
         })
     }
 
-    /// The brick holding `cell` and the cell's index in it.
+    /// The layer holding `cell` and the cell's index in it.
     #[inline]
     fn locate(&self, cell: [usize; 3]) -> (usize, usize) {
-        let b = (cell[0] / BRICK) * self.strides[0]
-            + (cell[1] / BRICK) * self.strides[1]
-            + (cell[2] / BRICK) * self.strides[2];
-        let local = cell[0] % BRICK + BRICK * (cell[1] % BRICK + BRICK * (cell[2] % BRICK));
-        (b, local)
+        let layer = cell[0] / BRICK + (cell[1] / BRICK) * self.row + cell[2] * self.columns;
+        (layer, cell[0] % BRICK + BRICK * (cell[1] % BRICK))
     }
 
-    /// Where brick `b`'s sums are (run, start), giving it zeroed sums when it has none.
+    /// The brick holding layer `layer`, and the layer's depth in it.
+    fn brick_of(&self, layer: usize) -> (usize, usize) {
+        let (column, z) = (layer % self.columns, layer / self.columns);
+        (column + (z / BRICK) * self.columns, z % BRICK)
+    }
+
+    /// Where layer `layer`'s sums are (run, start), giving it zeroed sums when it has none.
     #[inline]
-    fn place(&mut self, b: usize) -> Outcome<(usize, usize)> {
-        let s = self.slots[b] as usize;
+    fn place(&mut self, layer: usize) -> Outcome<(usize, usize)> {
+        let s = self.slots[layer] as usize;
         if s != 0 {
             return Ok(Self::run_and_start(s - 1));
         }
-        self.give_sums(b)
+        self.give_sums(layer)
     }
 
-    /// The run and start of the `s`-th brick reached.
+    /// The run and start of the `s`-th layer reached.
     #[inline]
     fn run_and_start(s: usize) -> (usize, usize) {
-        (s / RUN_BRICKS, (s % RUN_BRICKS) * Self::BRICK_SUMS)
+        (s / RUN_LAYERS, (s % RUN_LAYERS) * Self::LAYER_SUMS)
     }
 
-    /// Gives brick `b` the next free sums, starting a new run of zeroed sums when the last
-    /// one is full.
+    /// Gives layer `layer` the next free sums, starting a new run of zeroed sums when the
+    /// last one is full.
     #[cold]
-    fn give_sums(&mut self, b: usize) -> Outcome<(usize, usize)> {
-        let s = self.bricks.len();
+    fn give_sums(&mut self, layer: usize) -> Outcome<(usize, usize)> {
+        let s = self.layers.len();
         let (run, start) = Self::run_and_start(s);
         if run == self.runs.len() {
-            let len = RUN_BRICKS * Self::BRICK_SUMS;
+            let len = RUN_LAYERS * Self::LAYER_SUMS;
             self.memory.push(crate::budget::reserve(
                 (len * 8) as f64,
                 "flame splat sums",
             )?);
             self.runs.push(vec![0i64; len]);
         }
-        self.bricks.push((b, run as u32, start as u32));
-        self.slots[b] = self.bricks.len() as u32;
+        self.layers.push(layer);
+        self.slots[layer] = self.layers.len() as u32;
         Ok((run, start))
     }
 
-    /// Brick `s`'s sums, for the `s`-th brick reached.
+    /// The sums of the `s`-th layer reached.
     fn sums(&self, s: usize) -> &[i64] {
-        let (_, run, start) = self.bricks[s];
-        &self.runs[run as usize][start as usize..start as usize + Self::BRICK_SUMS]
+        let (run, start) = Self::run_and_start(s);
+        &self.runs[run][start..start + Self::LAYER_SUMS]
     }
 
     /// Adds one dot's `scaled` value (value times the fixed-point scale).
     #[inline]
     fn add(&mut self, l: &Landing, kernel: Kernel, scaled: [f64; W]) -> Outcome<()> {
         if kernel == Kernel::Nearest {
-            let (b, local) = self.locate(l.cell);
-            let (run, start) = self.place(b)?;
+            let (layer, local) = self.locate(l.cell);
+            let (run, start) = self.place(layer)?;
             let at = start + local * W;
             let sums = &mut self.runs[run][at..at + W];
             for c in 0..W {
@@ -135,28 +147,30 @@ impl<const W: usize> BrickSums<W> {
             }
             return Ok(());
         }
-        let weights = l.weights();
-        // Mostly the whole stencil lies in one brick: one lookup.
-        let inside = (0..3).all(|a| l.step[a] == 0 || l.cell[a] % BRICK != BRICK - 1);
-        if inside {
-            let (b, local) = self.locate(l.cell);
-            let (run, start) = self.place(b)?;
-            let (sx, sy, sz) = (l.step[0], l.step[1] * BRICK, l.step[2] * BRICK * BRICK);
-            let at = [0, sx, sy, sx + sy, sz, sx + sz, sy + sz, sx + sy + sz]
-                .map(|o| start + (local + o) * W);
-            let sums = &mut self.runs[run];
-            for c in 0..W {
-                shares(scaled[c], &weights, |corner, q| sums[at[corner] + c] += q);
-            }
-            return Ok(());
-        }
         let mut at = [(0usize, 0usize); 8];
-        for (corner, slot) in at.iter_mut().enumerate() {
-            let cell = [0, 1, 2].map(|a| l.cell[a] + l.step[a] * (corner >> a & 1));
-            let (b, local) = self.locate(cell);
-            let (run, start) = self.place(b)?;
-            *slot = (run, start + local * W);
+        // Mostly the stencil's x and y stay in one brick: a lookup per layer it reaches.
+        let inside = (0..2).all(|a| l.step[a] == 0 || l.cell[a] % BRICK != BRICK - 1);
+        if inside {
+            let (layer, local) = self.locate(l.cell);
+            let below = self.place(layer)?;
+            let above = match l.step[2] {
+                0 => below,
+                _ => self.place(layer + self.columns)?,
+            };
+            let (sx, sy) = (l.step[0], l.step[1] * BRICK);
+            for (corner, o) in [0, sx, sy, sx + sy].into_iter().enumerate() {
+                at[corner] = (below.0, below.1 + (local + o) * W);
+                at[corner + 4] = (above.0, above.1 + (local + o) * W);
+            }
+        } else {
+            for (corner, slot) in at.iter_mut().enumerate() {
+                let cell = [0, 1, 2].map(|a| l.cell[a] + l.step[a] * (corner >> a & 1));
+                let (layer, local) = self.locate(cell);
+                let (run, start) = self.place(layer)?;
+                *slot = (run, start + local * W);
+            }
         }
+        let weights = l.weights();
         let runs = &mut self.runs;
         for c in 0..W {
             shares(scaled[c], &weights, |corner, q| {
@@ -168,26 +182,58 @@ impl<const W: usize> BrickSums<W> {
     }
 
     /// Adds another worker's sums into these.
-    fn absorb(&mut self, other: BrickSums<W>) -> Outcome<()> {
+    fn absorb(&mut self, other: LayerSums<W>) -> Outcome<()> {
         self.outside += other.outside;
-        for (s, &(b, _, _)) in other.bricks.iter().enumerate() {
-            let (run, start) = self.place(b)?;
-            let mine = &mut self.runs[run][start..start + Self::BRICK_SUMS];
+        for (s, &layer) in other.layers.iter().enumerate() {
+            let (run, start) = self.place(layer)?;
+            let mine = &mut self.runs[run][start..start + Self::LAYER_SUMS];
             for (x, y) in mine.iter_mut().zip(other.sums(s)) {
                 *x += y;
             }
         }
         Ok(())
     }
+
+    /// The bricks reached, ascending, each with its layers reached: (brick, [(depth, s)]).
+    fn bricks(&self) -> Vec<(usize, Vec<(usize, usize)>)> {
+        let mut order: Vec<(usize, usize, usize)> = self
+            .layers
+            .iter()
+            .enumerate()
+            .map(|(s, &layer)| {
+                let (brick, depth) = self.brick_of(layer);
+                (brick, depth, s)
+            })
+            .collect();
+        order.sort_unstable();
+        let mut bricks: Vec<(usize, Vec<(usize, usize)>)> = Vec::new();
+        for (brick, depth, s) in order {
+            match bricks.last_mut() {
+                Some((b, layers)) if *b == brick => layers.push((depth, s)),
+                _ => bricks.push((brick, vec![(depth, s)])),
+            }
+        }
+        bricks
+    }
+
+    /// A brick's sums in brick order (x fastest, then y, then z), zero in layers not reached.
+    fn brick_sums(&self, layers: &[(usize, usize)]) -> Vec<i64> {
+        let mut brick = vec![0i64; BRICK_CELLS * W];
+        for &(depth, s) in layers {
+            brick[depth * Self::LAYER_SUMS..(depth + 1) * Self::LAYER_SUMS]
+                .copy_from_slice(self.sums(s));
+        }
+        brick
+    }
 }
 
 /// Where one worker's dots go: the indexers and scales of the caches, and its sums. Count
 /// and colour on one domain share one table of four sums per cell (count, red, green, blue),
-/// so a dot lands once and touches one brick.
+/// so a dot lands once and touches one cell's sums.
 struct Worker<'a> {
-    count: Option<(&'a Indexer, f64, BrickSums<1>)>,
-    color: Option<(&'a Indexer, f64, BrickSums<3>)>,
-    joint: Option<(&'a Indexer, [f64; 2], BrickSums<4>)>,
+    count: Option<(&'a Indexer, f64, LayerSums<1>)>,
+    color: Option<(&'a Indexer, f64, LayerSums<3>)>,
+    joint: Option<(&'a Indexer, [f64; 2], LayerSums<4>)>,
 }
 
 impl Sink for Worker<'_> {
@@ -211,7 +257,7 @@ impl Sink for Worker<'_> {
 #[inline]
 fn deposit<const W: usize>(
     indexer: &Indexer,
-    sums: &mut BrickSums<W>,
+    sums: &mut LayerSums<W>,
     position: [f32; 3],
     scaled: [f64; W],
 ) -> Outcome<()> {
@@ -288,7 +334,6 @@ pub fn splat_flame(
             check_shape(width, into.background, into.previous, indexer)?;
         }
     }
-    let bricks_of = |i: &Indexer| i.cells.map(|c| c.div_ceil(BRICK));
     let joint = match (count_into, color_into) {
         (Some(a), Some(b)) => a.domain == b.domain && a.kernel == b.kernel,
         _ => false,
@@ -301,16 +346,16 @@ pub fn splat_flame(
             return Ok(Worker {
                 count: None,
                 color: None,
-                joint: Some((i, [count_scale, color_scale], BrickSums::new(bricks_of(i))?)),
+                joint: Some((i, [count_scale, color_scale], LayerSums::new(i.cells)?)),
             });
         }
         Ok(Worker {
             count: match &count_indexer {
-                Some(i) => Some((i, count_scale, BrickSums::new(bricks_of(i))?)),
+                Some(i) => Some((i, count_scale, LayerSums::new(i.cells)?)),
                 None => None,
             },
             color: match &color_indexer {
-                Some(i) => Some((i, color_scale, BrickSums::new(bricks_of(i))?)),
+                Some(i) => Some((i, color_scale, LayerSums::new(i.cells)?)),
                 None => None,
             },
             joint: None,
@@ -371,8 +416,7 @@ pub fn splat_flame(
         }
     }
     let mut out = Vec::new();
-    if let Some((indexer, [count_scale, color_scale], mut sums)) = merged.joint {
-        sums.bricks.sort_unstable_by_key(|&(b, _, _)| b);
+    if let Some((indexer, [count_scale, color_scale], sums)) = merged.joint {
         if let Some(into) = count_into {
             out.push(finish::<1, 4>(into, indexer, count_scale, &sums, 0, dots)?);
         }
@@ -380,12 +424,10 @@ pub fn splat_flame(
             out.push(finish::<3, 4>(into, indexer, color_scale, &sums, 1, dots)?);
         }
     }
-    if let (Some(into), Some((indexer, scale, mut sums))) = (count_into, merged.count) {
-        sums.bricks.sort_unstable_by_key(|&(b, _, _)| b);
+    if let (Some(into), Some((indexer, scale, sums))) = (count_into, merged.count) {
         out.push(finish::<1, 1>(into, indexer, scale, &sums, 0, dots)?);
     }
-    if let (Some(into), Some((indexer, scale, mut sums))) = (color_into, merged.color) {
-        sums.bricks.sort_unstable_by_key(|&(b, _, _)| b);
+    if let (Some(into), Some((indexer, scale, sums))) = (color_into, merged.color) {
         out.push(finish::<3, 3>(into, indexer, scale, &sums, 0, dots)?);
     }
     Ok((
@@ -396,13 +438,13 @@ pub fn splat_flame(
     ))
 }
 
-/// A cache's new state from components `first..first + W` of the merged sums (bricks sorted),
+/// A cache's new state from components `first..first + W` of the merged sums,
 /// and its report, whose total is the integer sums themselves: exactly what the cells got.
 fn finish<const W: usize, const S: usize>(
     into: &SplatInto,
     indexer: &Indexer,
     scale: f64,
-    sums: &BrickSums<S>,
+    sums: &LayerSums<S>,
     first: usize,
     dots: usize,
 ) -> Outcome<(Cache, SplatReport)> {
@@ -413,18 +455,19 @@ fn finish<const W: usize, const S: usize>(
         counts: indexer.cells.map(|c| c.div_ceil(BRICK)),
     };
     let mut total = [0i128; 3];
-    for s in 0..sums.bricks.len() {
+    for s in 0..sums.layers.len() {
         for cell in sums.sums(s).chunks_exact(S) {
             for c in 0..W {
                 total[c] += cell[first + c] as i128;
             }
         }
     }
-    let bricks: Vec<(usize, Box<[f32]>)> = (0..sums.bricks.len())
+    let bricks: Vec<(usize, Box<[f32]>)> = sums
+        .bricks()
         .into_par_iter()
-        .map(|s| {
-            let b = sums.bricks[s].0;
-            (b, target.values_of::<W>(b, sums.sums(s), S, first, scale))
+        .map(|(b, layers)| {
+            let brick = sums.brick_sums(&layers);
+            (b, target.values_of::<W>(b, &brick, S, first, scale))
         })
         .collect();
     let cache = target.assemble(W, bricks)?;
