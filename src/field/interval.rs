@@ -239,9 +239,11 @@ pub fn ranges(roots: &[NodeRef], region: &Aabb) -> Vec<Interval> {
 #[derive(Clone, Debug)]
 pub struct IntervalTape {
     ssa: Arc<Ssa>,
-    /// For each kernel instruction, its slot among the kernels' output lists.
-    slot_of: Vec<u32>,
-    kernels: usize,
+    /// For each kernel instruction, where its outputs' intervals start in the one list of all
+    /// kernels' outputs, and how many it has; (0, 0) for other instructions. One list, sized
+    /// once, rather than a list per kernel per region: fills ask for a range per brick.
+    outputs_of: Vec<(u32, u32)>,
+    kernel_outputs: usize,
 }
 
 impl IntervalTape {
@@ -251,22 +253,23 @@ impl IntervalTape {
 
     /// The tape of a linear form, sharing it.
     pub fn from_ssa(ssa: Arc<Ssa>) -> IntervalTape {
-        let mut kernels = 0;
-        let slot_of = ssa
+        let mut kernel_outputs = 0;
+        let outputs_of = ssa
             .insts
             .iter()
             .map(|inst| match inst {
-                Inst::Kernel(..) => {
-                    kernels += 1;
-                    kernels as u32 - 1
+                Inst::Kernel(kernel, _) => {
+                    let first = kernel_outputs as u32;
+                    kernel_outputs += kernel.outputs();
+                    (first, kernel.outputs() as u32)
                 }
-                _ => u32::MAX,
+                _ => (0, 0),
             })
             .collect();
         IntervalTape {
             ssa,
-            slot_of,
-            kernels,
+            outputs_of,
+            kernel_outputs,
         }
     }
 
@@ -286,7 +289,7 @@ impl IntervalTape {
     pub fn intervals(&self, region: &Aabb) -> Vec<Interval> {
         let insts = &self.ssa.insts;
         let mut iv: Vec<Interval> = Vec::with_capacity(insts.len());
-        let mut kernel_iv: Vec<Vec<Interval>> = vec![Vec::new(); self.kernels];
+        let mut kernel_iv: Vec<Interval> = vec![ALL; self.kernel_outputs];
         for (i, inst) in insts.iter().enumerate() {
             let at = |k: Index| iv[k as usize];
             let r = match inst {
@@ -307,14 +310,25 @@ impl IntervalTape {
                     }
                 }
                 Inst::Kernel(k, args) => {
-                    let args: Vec<Interval> = args.iter().map(|&a| at(a)).collect();
-                    kernel_iv[self.slot_of[i] as usize] = kernel_ranges(k, &args);
+                    debug_assert!(args.len() <= MOST_KERNEL_ARGS);
+                    let mut arg_iv = [ALL; MOST_KERNEL_ARGS];
+                    for (to, &a) in arg_iv.iter_mut().zip(args.iter()) {
+                        *to = at(a);
+                    }
+                    let (first, count) = self.outputs_of[i];
+                    let out = &mut kernel_iv[first as usize..(first + count) as usize];
+                    kernel_ranges(k, &arg_iv[..args.len().min(MOST_KERNEL_ARGS)], out);
                     ALL
                 }
-                Inst::Output([k], index) => kernel_iv[self.slot_of[*k as usize] as usize]
-                    .get(*index as usize)
-                    .copied()
-                    .unwrap_or(ALL),
+                Inst::Output([k], index) => {
+                    let (first, count) = self.outputs_of[*k as usize];
+                    let index = *index as u32;
+                    if index < count {
+                        kernel_iv[(first + index) as usize]
+                    } else {
+                        ALL
+                    }
+                }
             };
             iv.push(r);
         }
@@ -322,15 +336,19 @@ impl IntervalTape {
     }
 }
 
-fn kernel_ranges(kernel: &Kernel, args: &[Interval]) -> Vec<Interval> {
+/// Most arguments a kernel takes (the pseudo-inverse's nine matrix entries).
+const MOST_KERNEL_ARGS: usize = 9;
+
+/// The intervals of a kernel's outputs, into `out` (one per output, `ALL` where unknown).
+fn kernel_ranges(kernel: &Kernel, args: &[Interval], out: &mut [Interval]) {
     match kernel {
         Kernel::Noise { kind, .. } => {
             let (lo, hi) = noise::value_range(*kind);
             let slope = noise::lipschitz(*kind);
-            let mut v = vec![Interval::new(lo, hi)];
-            v.extend([Interval::new(-slope, slope); 3]);
-            v.extend([ALL; 6]);
-            v
+            // Value, then the gradient's three components; the Hessian's six stay `ALL`.
+            out[0] = Interval::new(lo, hi);
+            out[1..4].fill(Interval::new(-slope, slope));
+            out[4..].fill(ALL);
         }
         Kernel::GridValue { grid, .. } => {
             let region = Aabb::new(
@@ -346,19 +364,16 @@ fn kernel_ranges(kernel: &Kernel, args: &[Interval]) -> Vec<Interval> {
             } else {
                 grid.range(&inside)
             };
-            (0..grid.width())
-                .map(|c| {
-                    let mut r: Option<Interval> =
-                        within.get(c).map(|&(lo, hi)| Interval::new(lo, hi));
-                    if outside_possible || r.is_none() {
-                        let b = Interval::point(background.get(c).copied().unwrap_or(0.0));
-                        r = Some(r.map_or(b, |r| r.union(b)));
-                    }
-                    r.unwrap_or(ALL)
-                })
-                .collect()
+            for (c, o) in out.iter_mut().enumerate() {
+                let mut r: Option<Interval> = within.get(c).map(|&(lo, hi)| Interval::new(lo, hi));
+                if outside_possible || r.is_none() {
+                    let b = Interval::point(background.get(c).copied().unwrap_or(0.0));
+                    r = Some(r.map_or(b, |r| r.union(b)));
+                }
+                *o = r.unwrap_or(ALL);
+            }
         }
-        other => vec![ALL; other.outputs()],
+        _ => out.fill(ALL),
     }
 }
 
