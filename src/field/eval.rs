@@ -179,6 +179,13 @@ impl<'p> Evaluator<'p> {
                     }
                 }
                 Instr::Binary { op, dst, a, b } => binary(&mut self.regs, *op, *dst, *a, *b, n),
+                Instr::BinaryConstant {
+                    op,
+                    dst,
+                    a,
+                    k,
+                    constant_first,
+                } => binary_constant(&mut self.regs, *op, *dst, *a, *k, *constant_first, n),
                 Instr::Select { dst, c, a, b } => {
                     let (d, [c, a, b]) = lanes(&mut self.regs, *dst, [*c, *a, *b], n);
                     for i in 0..n {
@@ -373,22 +380,58 @@ fn unary(regs: &mut [f64], f: MathFn, dst: Reg, a: Reg, n: usize) {
     }
 }
 
+/// Calls `$apply!` with the closure computing `op` (one place for the tape's arithmetic of
+/// every binary operation).
+macro_rules! with_op {
+    ($op:expr, $apply:ident) => {
+        match $op {
+            BinOp::Add => $apply!(|x: f64, y: f64| x + y),
+            BinOp::Sub => $apply!(|x: f64, y: f64| x - y),
+            BinOp::Mul => $apply!(|x: f64, y: f64| x * y),
+            BinOp::Div => $apply!(|x: f64, y: f64| x / y),
+            BinOp::GuardedDiv => $apply!(|x: f64, y: f64| {
+                let q = x / y;
+                if y == 0.0 { 0.0 } else { q }
+            }),
+            BinOp::Min => $apply!(f64::min),
+            BinOp::Max => $apply!(f64::max),
+            BinOp::Pow => $apply!(f64::powf),
+            BinOp::Atan2 => $apply!(f64::atan2),
+        }
+    };
+}
+
 #[inline(always)]
 fn binary(regs: &mut [f64], op: BinOp, dst: Reg, a: Reg, b: Reg, n: usize) {
-    match op {
-        BinOp::Add => map2(regs, dst, a, b, n, |x, y| x + y),
-        BinOp::Sub => map2(regs, dst, a, b, n, |x, y| x - y),
-        BinOp::Mul => map2(regs, dst, a, b, n, |x, y| x * y),
-        BinOp::Div => map2(regs, dst, a, b, n, |x, y| x / y),
-        BinOp::GuardedDiv => map2(regs, dst, a, b, n, |x, y| {
-            let q = x / y;
-            if y == 0.0 { 0.0 } else { q }
-        }),
-        BinOp::Min => map2(regs, dst, a, b, n, f64::min),
-        BinOp::Max => map2(regs, dst, a, b, n, f64::max),
-        BinOp::Pow => map2(regs, dst, a, b, n, f64::powf),
-        BinOp::Atan2 => map2(regs, dst, a, b, n, f64::atan2),
+    macro_rules! lanes_of_both {
+        ($f:expr) => {
+            map2(regs, dst, a, b, n, $f)
+        };
     }
+    with_op!(op, lanes_of_both)
+}
+
+/// `binary` with one operand a constant `k` (the first operand when `constant_first`).
+#[inline(always)]
+fn binary_constant(
+    regs: &mut [f64],
+    op: BinOp,
+    dst: Reg,
+    a: Reg,
+    k: f64,
+    constant_first: bool,
+    n: usize,
+) {
+    macro_rules! with_constant {
+        ($f:expr) => {
+            if constant_first {
+                map1(regs, dst, a, n, |x| $f(k, x))
+            } else {
+                map1(regs, dst, a, n, |x| $f(x, k))
+            }
+        };
+    }
+    with_op!(op, with_constant)
 }
 
 #[cfg(target_arch = "x86_64")]

@@ -280,6 +280,43 @@ fn folding_a_binary_op_gives_the_tape_value() {
     }
 }
 
+/// An operation with one constant operand runs as `BinaryConstant` (the constant read once,
+/// not as a register) and gives the folded value, on either side, for every special input.
+#[test]
+fn a_constant_operand_gives_the_folded_value_on_either_side() {
+    use crate::field::program::Instr;
+    let x = node::position(0);
+    let points: Vec<[f64; 3]> = SPECIAL.iter().map(|&v| [v, 0.0, 0.0]).collect();
+    for op in every_bin_op() {
+        for k in [0.3, -7.1, 1e300, 3.5e-310, INF] {
+            let roots = [
+                node::binary(op, node::constant(k), x.clone()),
+                node::binary(op, x.clone(), node::constant(k)),
+            ];
+            let program = Program::compile(&roots);
+            // Commuted operands of a symmetric operation are one node.
+            let count = |f: fn(&Instr) -> bool| program.instrs.iter().filter(|i| f(i)).count();
+            let with_constant = count(|i| matches!(i, Instr::BinaryConstant { .. }));
+            assert!((1..=2).contains(&with_constant), "{op:?} with {k:e}");
+            assert_eq!(count(|i| matches!(i, Instr::Binary { .. })), 0);
+            let got = tape(&roots, &points, Precision::Double);
+            for (i, &v) in SPECIAL.iter().enumerate() {
+                for (side, (a, b)) in [(0, (k, v)), (1, (v, k))] {
+                    let folded = op.apply(a, b);
+                    let either_zero = matches!(op, BinOp::Min | BinOp::Max)
+                        && folded == 0.0
+                        && got[side][i] == 0.0;
+                    assert!(
+                        same(folded, got[side][i]) || either_zero,
+                        "{op:?}({a:e}, {b:e}): folded {folded:e}, tape {:e}",
+                        got[side][i]
+                    );
+                }
+            }
+        }
+    }
+}
+
 /// The identities `node::binary` applies when one operand is a constant or both are the same
 /// node hold for finite values: `a·0 = 0`, `a/2ᵏ = a·2⁻ᵏ`, `a^2 = a·a`, `a − a = 0`, ...
 /// Checked against the folded value. The one documented departure: `0 / y` is 0 also where
