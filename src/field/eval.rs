@@ -45,6 +45,17 @@ impl ProgramRef<'_> {
     }
 }
 
+/// What an evaluator holds while its own program is out, being run.
+static NO_PROGRAM: Program = Program {
+    instrs: Vec::new(),
+    registers: 0,
+    constants: Vec::new(),
+    outputs: Vec::new(),
+    emits: Vec::new(),
+    grid_scratch: 0,
+    nodes: 0,
+};
+
 pub struct Evaluator<'p> {
     /// The compiled field's own program, or one specialised to a region (`field::prune`).
     program: ProgramRef<'p>,
@@ -142,29 +153,33 @@ impl<'p> Evaluator<'p> {
         self.run_tape(n, precision, emit)
     }
 
-    /// Hands every output whose value became final after instruction `k` to `emit`.
+    /// Hands every output of `program` whose value became final after instruction `k` to
+    /// `emit`.
     #[inline(always)]
     fn emit_after(
         &self,
+        program: &Program,
         k: usize,
         next: &mut usize,
         n: usize,
         emit: &mut impl FnMut(usize, &[f64]),
     ) {
-        let emits = &self.program.get().emits;
-        while let Some(&(at, c)) = emits.get(*next) {
+        while let Some(&(at, c)) = program.emits.get(*next) {
             if at != k {
                 break;
             }
-            emit(c, self.output(c, n));
+            let r = program.outputs[c] as usize;
+            emit(c, &self.regs[r * BLOCK..r * BLOCK + n]);
             *next += 1;
         }
     }
 
     #[inline(always)]
     fn run_tape(&mut self, n: usize, precision: Precision, emit: &mut impl FnMut(usize, &[f64])) {
-        // A cheap handle, so the tape can be read while the evaluator's scratch is written.
-        let handle = self.program.clone();
+        // The program is taken out for the run, so the tape can be read while the evaluator's
+        // scratch is written. Not a clone: threads running one shared program would bump its
+        // reference count once per block, on one cache line they all write.
+        let handle = std::mem::replace(&mut self.program, ProgramRef::Borrowed(&NO_PROGRAM));
         let program = handle.get();
         let mut next = 0;
         for (step, instr) in program.instrs.iter().enumerate() {
@@ -234,9 +249,10 @@ impl<'p> Evaluator<'p> {
                     }
                 }
             }
-            self.emit_after(step, &mut next, n, emit);
+            self.emit_after(program, step, &mut next, n, emit);
         }
-        self.emit_after(program.instrs.len(), &mut next, n, emit);
+        self.emit_after(program, program.instrs.len(), &mut next, n, emit);
+        self.program = handle;
     }
 
     // Inlined into the tape loop so that, in its AVX2 build, staging the points and widening
