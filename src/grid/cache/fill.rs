@@ -34,6 +34,25 @@ impl FillScratch {
     }
 }
 
+/// What some brick fills did, added into the cache's counters in one go: counters written by
+/// every thread for every brick would bounce one cache line between the cores.
+#[derive(Default)]
+struct Tally {
+    resolved: usize,
+    skipped: usize,
+    nanos: u64,
+}
+
+impl Tally {
+    fn and(self, other: Tally) -> Tally {
+        Tally {
+            resolved: self.resolved + other.resolved,
+            skipped: self.skipped + other.skipped,
+            nanos: self.nanos + other.nanos,
+        }
+    }
+}
+
 impl Cache {
     /// Fills every unresolved brick, in parallel across bricks. Each rayon task makes one
     /// evaluator and reuses it for the bricks it takes.
@@ -44,14 +63,28 @@ impl Cache {
         let pending: Vec<usize> = (0..self.bricks.len())
             .filter(|&index| self.bricks[index].get().is_none())
             .collect();
-        pending.par_iter().for_each_init(
-            || (source.evaluator(), FillScratch::new()),
-            |(evaluator, scratch), &index| {
-                self.bricks[index].get_or_init(|| {
-                    self.compute_brick(index, source.as_ref(), evaluator.as_mut(), scratch)
-                });
-            },
-        );
+        let tally = pending
+            .par_iter()
+            .map_init(
+                || (source.evaluator(), FillScratch::new()),
+                |(evaluator, scratch), &index| {
+                    let mut tally = Tally::default();
+                    self.bricks[index].get_or_init(|| {
+                        let source = source.as_ref();
+                        self.compute_brick(index, source, evaluator.as_mut(), scratch, &mut tally)
+                    });
+                    tally
+                },
+            )
+            .reduce(Tally::default, Tally::and);
+        self.settle(tally);
+    }
+
+    /// Adds what brick fills did into the cache's counters.
+    fn settle(&self, tally: Tally) {
+        self.skipped.fetch_add(tally.skipped, Ordering::Relaxed);
+        self.fill_nanos.fetch_add(tally.nanos, Ordering::Relaxed);
+        self.note_resolved_many(tally.resolved);
     }
 
     /// Runs the whole-grid solves the pending bricks read (see `grid::demand`); outputs call
@@ -70,7 +103,16 @@ impl Cache {
             Some(source) => {
                 let mut evaluator = source.evaluator();
                 let mut scratch = FillScratch::new();
-                self.compute_brick(index, source.as_ref(), evaluator.as_mut(), &mut scratch)
+                let mut tally = Tally::default();
+                let brick = self.compute_brick(
+                    index,
+                    source.as_ref(),
+                    evaluator.as_mut(),
+                    &mut scratch,
+                    &mut tally,
+                );
+                self.settle(tally);
+                brick
             }
             // The source goes only after every brick is resolved, so an unresolved brick
             // always finds it; background is the safe answer should that ever change.
@@ -99,6 +141,7 @@ impl Cache {
         source: &dyn FieldSampler,
         evaluator: &mut dyn BlockEval,
         scratch: &mut FillScratch,
+        tally: &mut Tally,
     ) -> Brick {
         let started = Instant::now();
         let (lo, hi) = self.shape.brick_cells(index);
@@ -114,12 +157,12 @@ impl Cache {
         if background_only {
             let brick = self.uniform_brick();
             let nanos = started.elapsed().as_nanos() as u64;
-            self.skipped.fetch_add(1, Ordering::Relaxed);
-            self.fill_nanos.fetch_add(nanos, Ordering::Relaxed);
+            tally.skipped += 1;
+            tally.nanos += nanos;
+            tally.resolved += 1;
             if let Some(stats) = &self.profile {
                 stats.add_skipped(nanos);
             }
-            self.note_resolved();
             return brick;
         }
 
@@ -136,7 +179,7 @@ impl Cache {
                 let at = local_index(0, y, z) * width;
                 values[at..at + row].copy_from_slice(from);
             }
-            return self.finish_computed(index, values, started);
+            return self.finish_computed(index, values, started, tally);
         }
         // `Domain::cell_center` computes origin + ((X lx + Y ly) + Z lz) with the rotation's
         // columns X, Y, Z; each product depends on one index, so taking them once per index
@@ -194,19 +237,25 @@ impl Cache {
                 }
             }
         }
-        self.finish_computed(index, values, started)
+        self.finish_computed(index, values, started, tally)
     }
 
     /// Stores a computed brick and counts its time.
-    fn finish_computed(&self, index: usize, values: Box<[f32]>, started: Instant) -> Brick {
+    fn finish_computed(
+        &self,
+        index: usize,
+        values: Box<[f32]>,
+        started: Instant,
+        tally: &mut Tally,
+    ) -> Brick {
         let brick = self.store_computed(index, values);
         let nanos = started.elapsed().as_nanos() as u64;
-        self.fill_nanos.fetch_add(nanos, Ordering::Relaxed);
+        tally.nanos += nanos;
+        tally.resolved += 1;
         if let Some(stats) = &self.profile {
             let bytes = brick.values.as_ref().map_or(0, |v| v.len() as u64 * 4);
             stats.add_filled(nanos, bytes);
         }
-        self.note_resolved();
         brick
     }
 
@@ -285,7 +334,15 @@ impl Cache {
 
     /// Counts a resolved brick; the last one releases the source.
     pub(super) fn note_resolved(&self) {
-        if self.resolved.fetch_add(1, Ordering::AcqRel) + 1 == self.bricks.len() {
+        self.note_resolved_many(1);
+    }
+
+    /// Notes `count` more resolved bricks; the last drops the source.
+    fn note_resolved_many(&self, count: usize) {
+        if count == 0 {
+            return;
+        }
+        if self.resolved.fetch_add(count, Ordering::AcqRel) + count == self.bricks.len() {
             let source = lock(&self.source).take();
             drop(source);
         }
