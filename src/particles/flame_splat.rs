@@ -44,7 +44,7 @@ const RUN_LAYERS: usize = 512;
 /// One worker's sums of `W` components per cell, brick layer by brick layer, in a few long
 /// runs of memory rather than one allocation per layer.
 struct LayerSums<const W: usize> {
-    /// Brick columns along x, and x × y (layer `(bx, by, z)` is `bx + bx_count·by + columns·z`).
+    /// Brick columns along x, and in all (layer `(bx, by, z)` is `bx + row·by + columns·z`).
     row: usize,
     columns: usize,
     /// Per layer of the grid: 0 when it has no sums yet, else its place in `layers` plus one.
@@ -62,7 +62,7 @@ impl<const W: usize> LayerSums<W> {
     /// Sums for a grid of `cells`.
     fn new(cells: [usize; 3]) -> Outcome<LayerSums<W>> {
         let (row, column) = (cells[0].div_ceil(BRICK), cells[1].div_ceil(BRICK));
-        let total = row * column * cells[2];
+        let total = row.saturating_mul(column).saturating_mul(cells[2]);
         if total >= u32::MAX as usize {
             return Err(Failure::new(
                 "a flame splat takes a grid of fewer than 2^32 brick layers",
