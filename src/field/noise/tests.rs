@@ -94,29 +94,9 @@ pub(super) fn full_f32(
     result
 }
 
-/// Values only, at f32, in one call per `BLOCK` points.
-pub(super) fn values_f32(
-    kind: NoiseKind,
-    seed: u32,
-    base: [f64; 3],
-    offsets: &[[f32; 3]],
-) -> Vec<f32> {
-    let mut result = Vec::with_capacity(offsets.len());
-    for chunk in offsets.chunks(BLOCK) {
-        let axis = |a: usize| chunk.iter().map(|p| p[a]).collect::<Vec<f32>>();
-        let mut value = vec![0.0; chunk.len()];
-        eval_f32(
-            kind,
-            seed,
-            base,
-            &axis(0),
-            &axis(1),
-            &axis(2),
-            NoiseOutput::value(&mut value),
-        );
-        result.extend(value);
-    }
-    result
+/// Values only, at f32, in one call per `BLOCK` points, by the build this machine runs.
+fn values_f32(kind: NoiseKind, seed: u32, base: [f64; 3], offsets: &[[f32; 3]]) -> Vec<f32> {
+    values_built(Build::detect(), kind, seed, base, offsets, BLOCK)
 }
 
 pub(super) fn random_points(
@@ -497,17 +477,17 @@ fn hard_offsets(stream: &mut Stream, n: usize) -> Vec<[f32; 3]> {
     (0..n).map(|_| [0, 1, 2].map(|_| special(stream))).collect()
 }
 
-/// Values of one build over `offsets`, in calls of `BLOCK` points (so the eight-lane loop and
-/// its scalar tail both run).
+/// Values of one build over `offsets`, in calls of `chunk` points.
 fn values_built(
     build: Build,
     kind: NoiseKind,
     seed: u32,
     base: [f64; 3],
     offsets: &[[f32; 3]],
+    chunk: usize,
 ) -> Vec<f32> {
     let mut result = Vec::with_capacity(offsets.len());
-    for chunk in offsets.chunks(BLOCK - 3) {
+    for chunk in offsets.chunks(chunk) {
         let axis = |a: usize| chunk.iter().map(|p| p[a]).collect::<Vec<f32>>();
         let mut value = vec![0.0; chunk.len()];
         let out = NoiseOutput::value(&mut value);
@@ -536,9 +516,10 @@ fn builds_agree_bit_for_bit() {
         for base in bases {
             for seed in [0u32, 5] {
                 let offsets = hard_offsets(&mut stream, 2000);
-                let reference = values_built(Build::Plain, kind, seed, base, &offsets);
+                // Calls of `BLOCK - 3` points, so the eight-lane loop and its scalar tail both run.
+                let reference = values_built(Build::Plain, kind, seed, base, &offsets, BLOCK - 3);
                 for build in builds {
-                    let values = values_built(build, kind, seed, base, &offsets);
+                    let values = values_built(build, kind, seed, base, &offsets, BLOCK - 3);
                     for ((r, v), o) in reference.iter().zip(&values).zip(&offsets) {
                         assert_eq!(
                             r.to_bits(),
