@@ -8,8 +8,8 @@
 //! second is chosen at run time when the CPU has them. The compiler then keeps eight `f32`
 //! points per register through hashing, gradient choice and blending, with no table lookups
 //! and no call per point. Perlin values alone, what fills and renders mostly ask for, also have
-//! a loop written with AVX2 intrinsics (`perlin_avx2.rs`) that gives the generic loop's bits
-//! with fewer instructions. Lattice spacing is 1: frequency and offsets are applied by the
+//! loops written with AVX2 and AVX-512 intrinsics (`perlin_lanes.rs`) that give the generic
+//! loop's bits with fewer instructions. Lattice spacing is 1: frequency and offsets are applied by the
 //! caller.
 //!
 //! Amplitudes, for displacement and interval bounds (lattice spacing 1; a noise read at
@@ -38,7 +38,7 @@ mod hash;
 mod lattice;
 mod perlin;
 #[cfg(target_arch = "x86_64")]
-mod perlin_avx2;
+mod perlin_lanes;
 mod simplex;
 mod worley;
 
@@ -125,9 +125,12 @@ enum Build {
     /// The generic loops compiled with AVX2+FMA enabled (only tests ask for it alone).
     #[cfg_attr(any(not(test), not(target_arch = "x86_64")), allow(dead_code))]
     Avx2,
-    /// As `Avx2`, with the intrinsics loops where a kernel has them (Perlin values).
+    /// As `Avx2`, with the eight-lane intrinsics loops where a kernel has them (Perlin values).
     #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     Avx2Intrinsics,
+    /// As `Avx2Intrinsics`, with sixteen-lane AVX-512 loops first.
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+    Avx512Intrinsics,
 }
 
 impl Build {
@@ -135,7 +138,11 @@ impl Build {
     fn detect() -> Build {
         #[cfg(target_arch = "x86_64")]
         if has_avx2_fma() {
-            return Build::Avx2Intrinsics;
+            return if perlin_lanes::has_avx512() {
+                Build::Avx512Intrinsics
+            } else {
+                Build::Avx2Intrinsics
+            };
         }
         Build::Plain
     }
@@ -190,16 +197,18 @@ const SIMPLEX_LIPSCHITZ: f64 = 8.0;
 trait Kernel {
     /// Whether the lattice is the skewed simplex lattice rather than the cube lattice.
     const SKEWED: bool;
-    /// A values-only block loop written with AVX2 intrinsics, where the family has one; it must
-    /// give the generic loop's bits. Called only where the CPU has AVX2 and FMA.
+    /// A values-only block loop written with intrinsics, where the family has one; it must give
+    /// the generic loop's bits. Called only where the CPU has AVX2 and FMA, and with its first
+    /// argument `true` only where it also has the AVX-512 features of `has_avx512`.
     #[cfg(target_arch = "x86_64")]
     const AVX2_VALUES: Option<Avx2Values> = None;
     fn sample<R: Real, const G: bool, const H: bool>(p: Located<R>, key: u32) -> Sample<R>;
 }
 
-/// The signature of an intrinsics values loop: key, block base, offsets, values.
+/// The signature of an intrinsics values loop: whether to use AVX-512, key, block base,
+/// offsets, values.
 #[cfg(target_arch = "x86_64")]
-type Avx2Values = unsafe fn(u32, &BlockBase, &[f32], &[f32], &[f32], &mut [f32]);
+type Avx2Values = unsafe fn(bool, u32, &BlockBase, &[f32], &[f32], &[f32], &mut [f32]);
 
 struct Perlin;
 struct Simplex;
@@ -208,7 +217,7 @@ struct Worley;
 impl Kernel for Perlin {
     const SKEWED: bool = false;
     #[cfg(target_arch = "x86_64")]
-    const AVX2_VALUES: Option<Avx2Values> = Some(perlin_avx2::values);
+    const AVX2_VALUES: Option<Avx2Values> = Some(perlin_lanes::values);
     #[inline(always)]
     fn sample<R: Real, const G: bool, const H: bool>(p: Located<R>, key: u32) -> Sample<R> {
         perlin::sample::<R, G, H>(p, key)
@@ -403,9 +412,10 @@ fn dispatch_f32<K: Kernel, const G: bool, const H: bool>(
 ) {
     #[cfg(target_arch = "x86_64")]
     if build != Build::Plain && has_avx2_fma() {
-        let intrinsics = build == Build::Avx2Intrinsics;
+        let intrinsics = matches!(build, Build::Avx2Intrinsics | Build::Avx512Intrinsics);
+        let wide = build == Build::Avx512Intrinsics && perlin_lanes::has_avx512();
         // SAFETY: the CPU has just been checked for the features this build enables.
-        unsafe { block_f32_avx2::<K, G, H>(intrinsics, key, base, x, y, z, sink) };
+        unsafe { block_f32_avx2::<K, G, H>(intrinsics, wide, key, base, x, y, z, sink) };
         return;
     }
     let _ = build;
@@ -430,8 +440,10 @@ fn dispatch_f64<K: Kernel, const G: bool, const H: bool>(
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
+#[allow(clippy::too_many_arguments)]
 fn block_f32_avx2<K: Kernel, const G: bool, const H: bool>(
     intrinsics: bool,
+    wide: bool,
     key: u32,
     base: &BlockBase,
     x: &[f32],
@@ -440,8 +452,9 @@ fn block_f32_avx2<K: Kernel, const G: bool, const H: bool>(
     sink: &mut Sink<'_, f32>,
 ) {
     if let (false, false, true, Some(values)) = (G, H, intrinsics, K::AVX2_VALUES) {
-        // SAFETY: this function runs only where the CPU has AVX2 and FMA.
-        unsafe { values(key, base, x, y, z, sink.value) };
+        // SAFETY: this function runs only where the CPU has AVX2 and FMA, and `wide` only where
+        // it has AVX-512 too.
+        unsafe { values(wide, key, base, x, y, z, sink.value) };
         return;
     }
     block_f32::<K, G, H>(key, base, x, y, z, sink)

@@ -510,13 +510,19 @@ fn builds_agree_bit_for_bit() {
         [1.0e5 + 0.37, -1.0e5 + 0.11, 1.0e5],
         [-1.0e8 - 0.5, 1.0e8 + 0.25, 3.0e7],
     ];
-    let builds = [Build::Plain, Build::Avx2, Build::Avx2Intrinsics];
+    let builds = [
+        Build::Plain,
+        Build::Avx2,
+        Build::Avx2Intrinsics,
+        Build::Avx512Intrinsics,
+    ];
     let mut compared = 0;
     for kind in KINDS {
         for base in bases {
             for seed in [0u32, 5] {
                 let offsets = hard_offsets(&mut stream, 2000);
-                // Calls of `BLOCK - 3` points, so the eight-lane loop and its scalar tail both run.
+                // Calls of `BLOCK - 3` points, so the sixteen- and eight-lane loops and the scalar
+                // tail all run.
                 let reference = values_built(Build::Plain, kind, seed, base, &offsets, BLOCK - 3);
                 for build in builds {
                     let values = values_built(build, kind, seed, base, &offsets, BLOCK - 3);
@@ -532,5 +538,5 @@ fn builds_agree_bit_for_bit() {
             }
         }
     }
-    assert_eq!(compared, 3 * 5 * 2 * 3 * 2000);
+    assert_eq!(compared, 3 * 5 * 2 * 4 * 2000);
 }
