@@ -214,18 +214,20 @@ impl<'a> Worker<'a> {
     fn next_segment(&mut self, frame: &Frame<'_>, r: usize) -> Option<(f64, f64)> {
         let rays = &mut self.rays;
         loop {
-            let (next, end) = rays.span[r];
-            if next >= end {
-                return None;
-            }
-            let (_, run_end) = rays.runs[next];
+            let run_end = rays.run_end[r];
             let t = rays.t[r];
             // A sliver left by rounding at the end of a run is not worth a sample.
             if t >= run_end - 1e-9 * frame.step {
-                rays.span[r].0 += 1;
-                if next + 1 < end {
-                    rays.t[r] = rays.runs[next + 1].0;
-                    rays.fresh[r] = true;
+                if run_end == f64::NEG_INFINITY {
+                    return None;
+                }
+                match frame.occupancy.next_run(&mut rays.walk[r]) {
+                    Some((begin, end)) => {
+                        rays.t[r] = begin;
+                        rays.run_end[r] = end;
+                        rays.fresh[r] = true;
+                    }
+                    None => rays.run_end[r] = f64::NEG_INFINITY,
                 }
                 if let Some(undo) = rays.undo.get_mut(r) {
                     // Rewinding never reaches back across empty space into the previous run.
@@ -483,7 +485,7 @@ impl<'a> Worker<'a> {
         rays.fresh[r] = false;
         if after.max_element() + holdout - 1.0 < s.threshold {
             // Nothing behind can show: retire the ray.
-            rays.span[r].0 = rays.span[r].1;
+            rays.run_end[r] = f64::NEG_INFINITY;
         }
     }
 }

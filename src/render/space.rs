@@ -120,7 +120,17 @@ impl Occupancy {
     }
 
     /// The runs of occupied bricks along `ray` within `[t0, t1]`, appended to `out` in order.
+    #[cfg(test)]
     pub fn intervals(&self, ray: &Ray, t0: f64, t1: f64, out: &mut Vec<(f64, f64)>) {
+        let mut walk = self.walk(ray, t0, t1);
+        while let Some(run) = self.next_run(&mut walk) {
+            out.push(run);
+        }
+    }
+
+    /// A walk along `ray` over `[t0, t1]` that `next_run` takes one run at a time, so a ray
+    /// that turns opaque in its first run never walks the bricks behind it.
+    pub fn walk(&self, ray: &Ray, t0: f64, t1: f64) -> BrickWalk {
         let n = self.counts;
         let start = ray.at(t0);
         let mut cell = [0i64; 3];
@@ -145,51 +155,81 @@ impl Occupancy {
             }
         }
         // The walk keeps the brick's flat index and, per axis, the bricks left before the
-        // ray leaves the grid, so a step is a few adds; the axis to cross is picked without
-        // branches (the smallest `t_next`, the lowest axis on ties), which the processor
-        // cannot predict along a ray.
+        // ray leaves the grid, so a step is a few adds.
         let stride = [1, n[0] as i64, (n[0] * n[1]) as i64];
-        let mut index = cell[0] + stride[1] * cell[1] + stride[2] * cell[2];
-        let index_step = [0, 1, 2].map(|a| step[a] * stride[a]);
-        let mut left = [0, 1, 2].map(|a| match step[a] {
-            1 => n[a] as i64 - 1 - cell[a],
-            -1 => cell[a],
-            _ => i64::MAX,
-        });
-        let mut t = t0;
+        BrickWalk {
+            t: t0,
+            t1,
+            t_next,
+            t_delta,
+            index: cell[0] + stride[1] * cell[1] + stride[2] * cell[2],
+            index_step: [0, 1, 2].map(|a| step[a] * stride[a]),
+            left: [0, 1, 2].map(|a| match step[a] {
+                1 => n[a] as i64 - 1 - cell[a],
+                -1 => cell[a],
+                _ => i64::MAX,
+            }),
+            done: t0 >= t1,
+        }
+    }
+
+    /// The walk's next run of occupied bricks `(begin, end)`, or `None` once it has left the
+    /// box.
+    pub fn next_run(&self, walk: &mut BrickWalk) -> Option<(f64, f64)> {
+        let w = walk;
         let mut run: Option<f64> = None;
-        loop {
-            let first = usize::from(t_next[1] < t_next[0]);
-            let axis = if t_next[2] < t_next[first] { 2 } else { first };
-            let exit = t_next[axis].min(t1);
-            if self.occupied[index as usize] {
-                run.get_or_insert(t);
-            } else if let Some(begin) = run.take() {
-                push_interval(out, begin, t);
+        while !w.done {
+            // The axis to cross is picked without branches (the smallest `t_next`, the lowest
+            // axis on ties), which the processor cannot predict along a ray.
+            let first = usize::from(w.t_next[1] < w.t_next[0]);
+            let axis = if w.t_next[2] < w.t_next[first] {
+                2
+            } else {
+                first
+            };
+            let exit = w.t_next[axis].min(w.t1);
+            if self.occupied[w.index as usize] {
+                run.get_or_insert(w.t);
+            } else if let Some(begin) = run.take()
+                && w.t > begin
+            {
+                // The walk stays on this empty brick; the next call passes over it.
+                return Some((begin, w.t));
             }
-            t = exit;
-            if t >= t1 {
-                break;
-            }
-            if left[axis] == 0 {
+            w.t = exit;
+            if w.t >= w.t1 {
+                w.done = true;
+            } else if w.left[axis] == 0 {
                 // Leaving the brick grid is leaving the box, which `t1` marks exactly.
-                t = t1;
-                break;
+                w.t = w.t1;
+                w.done = true;
+            } else {
+                w.left[axis] -= 1;
+                w.index += w.index_step[axis];
+                w.t_next[axis] += w.t_delta[axis];
             }
-            left[axis] -= 1;
-            index += index_step[axis];
-            t_next[axis] += t_delta[axis];
         }
-        if let Some(begin) = run {
-            push_interval(out, begin, t.min(t1));
-        }
+        run.map(|begin| (begin, w.t.min(w.t1)))
+            .filter(|&(begin, end)| end > begin)
+    }
+
+    /// Ends a walk: `next_run` gives nothing more.
+    pub fn stop(walk: &mut BrickWalk) {
+        walk.done = true;
     }
 }
 
-fn push_interval(out: &mut Vec<(f64, f64)>, begin: f64, end: f64) {
-    if end > begin {
-        out.push((begin, end));
-    }
+/// Where a ray's walk through the brick grid stands (see `Occupancy::walk`).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct BrickWalk {
+    t: f64,
+    t1: f64,
+    t_next: [f64; 3],
+    t_delta: [f64; 3],
+    index: i64,
+    index_step: [i64; 3],
+    left: [i64; 3],
+    done: bool,
 }
 
 /// Top-down classification of the bricks in `[lo, hi)`: returns the range queries made and
@@ -301,6 +341,16 @@ mod tests {
             assert!(a <= centre - 0.5 && a > centre - 0.5 - 0.13, "{a}");
             assert!(b >= centre + 0.5 && b < centre + 0.5 + 0.13, "{b}");
         }
+        // A walk gives the same runs one at a time, nothing after they are spent, and
+        // nothing more once stopped.
+        let mut walk = grid.walk(&ray, t0, t1);
+        assert_eq!(grid.next_run(&mut walk), Some(runs[0]));
+        assert_eq!(grid.next_run(&mut walk), Some(runs[1]));
+        assert_eq!(grid.next_run(&mut walk), None);
+        assert_eq!(grid.next_run(&mut walk), None);
+        let mut walk = grid.walk(&ray, t0, t1);
+        Occupancy::stop(&mut walk);
+        assert_eq!(grid.next_run(&mut walk), None);
         // A diagonal ray through nothing but empty bricks gets no runs at all.
         let diagonal = Ray {
             origin: DVec3::new(-1.0, -2.0, -2.0),

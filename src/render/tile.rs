@@ -9,7 +9,7 @@
 use super::adaptive::Snapshot;
 use super::camera::jitter;
 use super::march::Frame;
-use super::space::clip_to_box;
+use super::space::{BrickWalk, Occupancy, clip_to_box};
 use glam::DVec3;
 
 /// Counts for `--profile` and tests.
@@ -86,9 +86,10 @@ pub struct TileOutput {
 pub struct Rays {
     pub origin: Vec<DVec3>,
     pub direction: Vec<DVec3>,
-    /// Index range into `runs` still to march: `(next, end)`.
-    pub span: Vec<(usize, usize)>,
-    pub runs: Vec<(f64, f64)>,
+    /// The walk through the brick grid that gives each ray's next run of occupied bricks.
+    pub walk: Vec<BrickWalk>,
+    /// Where the run being marched ends; `−∞` once the ray has nothing left to march.
+    pub run_end: Vec<f64>,
     pub t: Vec<f64>,
     /// Adaptive step length, and whether the ray stands at the start of a run.
     pub h: Vec<f64>,
@@ -148,8 +149,9 @@ impl Rays {
         let r = self;
         r.origin.clear();
         r.direction.clear();
-        r.span.clear();
-        r.runs.clear();
+        r.walk.clear();
+        r.run_end.clear();
+        r.t.clear();
         r.u.clear();
         for py in 0..h {
             for px in 0..w {
@@ -165,23 +167,26 @@ impl Rays {
                         )
                     };
                     let ray = frame.raster.ray(x, y, jx, jy);
-                    let begin = r.runs.len();
+                    // Runs are found as the march reaches them, so a ray that turns opaque
+                    // never walks the bricks behind.
+                    let mut walk = BrickWalk::default();
+                    Occupancy::stop(&mut walk);
                     if let Some((t0, t1)) = clip_to_box(&ray, &frame.bounds) {
-                        frame.occupancy.intervals(&ray, t0, t1, &mut r.runs);
+                        walk = frame.occupancy.walk(&ray, t0, t1);
                     }
-                    r.span.push((begin, r.runs.len()));
+                    let (t, end) = frame
+                        .occupancy
+                        .next_run(&mut walk)
+                        .unwrap_or((0.0, f64::NEG_INFINITY));
+                    r.walk.push(walk);
+                    r.t.push(t);
+                    r.run_end.push(end);
                     r.origin.push(ray.origin);
                     r.direction.push(ray.direction);
                     r.u.push(jitter(s.seed, pixel, sample, 2));
                 }
             }
         }
-        r.t.clear();
-        r.t.extend(
-            r.span
-                .iter()
-                .map(|&(b, e)| if b < e { r.runs[b].0 } else { 0.0 }),
-        );
         let first = s.adaptive.map_or(frame.step, |a| a.max_step);
         reset(&mut r.h, n, first);
         reset(&mut r.fresh, n, true);
