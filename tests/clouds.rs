@@ -48,13 +48,14 @@ fn the_sweep_through_a_homogeneous_slab_is_beer_lambert() {
     .unwrap();
     let sigma = 3.0;
     let [nx, ny, nz] = domain.resolution.unwrap();
+    let columns = grid.columns();
     let (mut worst_inside, mut worst) = (0f64, 0f64);
     for k in 0..nz {
         for j in 0..ny {
             for i in 0..nx {
                 let p = domain.cell_center(i, j, k);
                 let d = exit(p, -travel, lengths);
-                let error = ((-sigma * grid.columns()[i + nx * (j + ny * k)] as f64).exp()
+                let error = ((-sigma * columns[i + nx * (j + ny * k)] as f64).exp()
                     - (-sigma * d).exp())
                 .abs();
                 worst = worst.max(error);
@@ -136,18 +137,18 @@ fn the_sweep_agrees_with_the_marched_light_cache_on_a_cloud() {
     )
     .unwrap();
     let (mut sum, mut worst) = (0.0, 0f64);
-    for (a, b) in swept.columns().iter().zip(marched.columns()) {
+    let (swept, marched) = (swept.columns(), marched.columns());
+    for (a, b) in swept.iter().zip(&marched) {
         let d = ((-kappa * *a as f64).exp() - (-kappa * *b as f64).exp()).abs();
         sum += d;
         worst = worst.max(d);
     }
-    let mean = sum / swept.columns().len() as f64;
+    let mean = sum / swept.len() as f64;
     let lit: f64 = marched
-        .columns()
         .iter()
         .map(|c| (-kappa * *c as f64).exp())
         .sum::<f64>()
-        / marched.columns().len() as f64;
+        / marched.len() as f64;
     eprintln!("sweep vs marched cache: mean |ΔT| {mean:.2e}, worst {worst:.3}, mean T {lit:.3}");
     // The cloud must shadow itself for the comparison to mean anything.
     assert!(lit < 0.9 && lit > 0.1, "mean transmittance {lit}");

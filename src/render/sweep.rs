@@ -16,14 +16,15 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 /// The slice-by-slice sweep. Works in a permuted copy where the sweep axis is the slowest, so
-/// each slice is contiguous.
+/// each slice is contiguous, and returns the columns in that order with the strides of the
+/// grid's axes in it (`Layout::strides`).
 pub fn sweep(
     rho: &[f32],
     light: &Light,
     domain: &Domain,
     resolution: [usize; 3],
     (axis, forward): (usize, bool),
-) -> Vec<f32> {
+) -> (Vec<f32>, [usize; 3]) {
     // Permuted axes: a (sweep), b, c.
     let (b_axis, c_axis) = match axis {
         0 => (1, 2),
@@ -159,7 +160,7 @@ pub fn sweep(
             });
     }
     WORKING.give(rho_p);
-    layout.to_natural(column)
+    (column, layout.strides())
 }
 
 /// Working grids in slice order, kept for the next sweep of the same size (an animation sweeps
@@ -178,71 +179,46 @@ struct Layout {
 }
 
 impl Layout {
-    /// Copies `values` from the grid's order into slice order, in `out`.
-    fn to_slices(&self, values: &[f32], out: Vec<f32>) -> Vec<f32> {
-        self.convert(values, true, out)
-    }
-
-    /// `values` in the grid's order (copied into a new grid unless sweeping along z, where
-    /// the orders are the same; then `values` is returned).
-    fn to_natural(&self, values: Vec<f32>) -> Vec<f32> {
-        if self.axes == [2, 0, 1] {
-            return values;
-        }
-        let natural = self.convert(&values, false, vec![0f32; values.len()]);
-        WORKING.give(values);
-        natural
-    }
-
-    /// One pass over the output, a plane of the output's slowest axis per parallel task.
-    /// When b is x the rows along x are contiguous in both orders and are copied whole.
-    fn convert(&self, values: &[f32], into_slices: bool, mut out: Vec<f32>) -> Vec<f32> {
+    /// Copies `values` from the grid's order into slice order, in `out`: one pass over the
+    /// output, a slice per parallel task. When b is x the rows along x are contiguous in both
+    /// orders and are copied whole.
+    fn to_slices(&self, values: &[f32], mut out: Vec<f32>) -> Vec<f32> {
         let [nx, ny, _] = self.resolution;
         let [a, b, c] = self.axes;
         let n = self.axes.map(|axis| self.resolution[axis]);
         let natural = |ijk: [usize; 3]| ijk[0] + nx * (ijk[1] + ny * ijk[2]);
-        let swept = |ia: usize, ib: usize, ic: usize| ib + n[1] * (ic + n[2] * ia);
-        let plane = if into_slices { n[1] * n[2] } else { nx * ny };
-        out.par_chunks_mut(plane).enumerate().for_each(|(p, out)| {
-            let mut ijk = [0usize; 3];
-            if b == 0 {
-                // Rows along x: slice order's (ia, ic) row is the grid's (y, z) row.
-                let rows = if into_slices { n[2] } else { ny };
-                for r in 0..rows {
-                    let (ia, ic) = if into_slices || a == 2 {
-                        (p, r)
-                    } else {
-                        (r, p)
-                    };
-                    ijk[a] = ia;
-                    ijk[c] = ic;
-                    let (from, to) = if into_slices {
-                        (natural(ijk), swept(ia, 0, ic) - p * plane)
-                    } else {
-                        (swept(ia, 0, ic), natural(ijk) - p * plane)
-                    };
-                    out[to..to + nx].copy_from_slice(&values[from..from + nx]);
-                }
-                return;
-            }
-            for (at, value) in out.iter_mut().enumerate() {
-                let (ia, ib, ic) = if into_slices {
-                    (p, at % n[1], at / n[1])
-                } else {
-                    ijk = [at % nx, at / nx, p];
-                    (ijk[a], ijk[b], ijk[c])
-                };
+        out.par_chunks_mut(n[1] * n[2])
+            .enumerate()
+            .for_each(|(ia, out)| {
+                let mut ijk = [0usize; 3];
                 ijk[a] = ia;
-                ijk[b] = ib;
-                ijk[c] = ic;
-                *value = if into_slices {
-                    values[natural(ijk)]
-                } else {
-                    values[swept(ia, ib, ic)]
-                };
-            }
-        });
+                if b == 0 {
+                    // Rows along x: the slice's row `ic` is the grid's (y, z) row.
+                    for (ic, row) in out.chunks_exact_mut(nx).enumerate() {
+                        ijk[c] = ic;
+                        let from = natural(ijk);
+                        row.copy_from_slice(&values[from..from + nx]);
+                    }
+                    return;
+                }
+                for (at, value) in out.iter_mut().enumerate() {
+                    ijk[b] = at % n[1];
+                    ijk[c] = at / n[1];
+                    *value = values[natural(ijk)];
+                }
+            });
         out
+    }
+
+    /// Where one step along each of the grid's axes x, y, z moves in slice order.
+    fn strides(&self) -> [usize; 3] {
+        let [a, b, c] = self.axes;
+        let n = self.axes.map(|axis| self.resolution[axis]);
+        let mut strides = [0; 3];
+        strides[a] = n[1] * n[2];
+        strides[b] = 1;
+        strides[c] = n[1];
+        strides
     }
 }
 

@@ -51,11 +51,14 @@ pub struct LightGrid {
     domain: Domain,
     resolution: [usize; 3],
     to_index: DMat3,
+    /// Where cell `(i, j, k)` is in `column`: `i·s₀ + j·s₁ + k·s₂`. A sweep leaves its columns
+    /// in slice order, and they are read there rather than copied into the grid's order.
+    strides: [usize; 3],
     column: Vec<f32>,
 }
 
 impl LightGrid {
-    fn new(domain: &Domain, column: Vec<f32>) -> LightGrid {
+    fn new(domain: &Domain, column: Vec<f32>, strides: [usize; 3]) -> LightGrid {
         let resolution = domain.resolution.unwrap_or([1, 1, 1]);
         let inv = DVec3::ONE / domain.cell;
         let to_index = DMat3::from_diagonal(inv) * domain.rotation.transpose();
@@ -63,13 +66,22 @@ impl LightGrid {
             domain: domain.clone(),
             resolution,
             to_index,
+            strides,
             column,
         }
     }
 
     /// The columns at the cell centres, index `i + nx·(j + ny·k)`.
-    pub fn columns(&self) -> &[f32] {
-        &self.column
+    pub fn columns(&self) -> Vec<f32> {
+        let [nx, ny, nz] = self.resolution;
+        let [sx, sy, sz] = self.strides;
+        let mut out = Vec::with_capacity(nx * ny * nz);
+        for k in 0..nz {
+            for j in 0..ny {
+                out.extend((0..nx).map(|i| self.column[i * sx + j * sy + k * sz]));
+            }
+        }
+        out
     }
 
     /// Trilinear interpolation of the column at world point `p`; outside the grid the nearest
@@ -98,12 +110,13 @@ impl LightGrid {
             base[axis] = i;
             frac[axis] = x - i as f64;
         }
+        let [sx, sy, sz] = self.strides;
         let step = [
-            usize::from(nx > 1),
-            usize::from(ny > 1) * nx,
-            usize::from(nz > 1) * nx * ny,
+            usize::from(nx > 1) * sx,
+            usize::from(ny > 1) * sy,
+            usize::from(nz > 1) * sz,
         ];
-        let at = base[0] + nx * (base[1] + ny * base[2]);
+        let at = base[0] * sx + base[1] * sy + base[2] * sz;
         let c = &self.column;
         let corners = [
             at,
@@ -129,6 +142,14 @@ impl LightGrid {
     }
 }
 
+impl Drop for LightGrid {
+    /// The columns go back to the sweep's store of working grids, so the next frame's sweep of
+    /// the same size does not fault in fresh pages for them.
+    fn drop(&mut self) {
+        WORKING.give(std::mem::take(&mut self.column));
+    }
+}
+
 /// Transmissivity `exp(−κ·∫ρ ds)` from each cell centre of `domain` towards `light`, index
 /// `i + nx·(j + ny·k)`: what the builtin `transmissivity(density, light, domain, kappa)` wraps as
 /// a grid-backed field.
@@ -151,11 +172,11 @@ pub fn transmissivity(
         f64::INFINITY
     };
     let grid = light_columns(density, light, domain, method, limit)?;
-    Ok(grid
-        .column
-        .iter()
-        .map(|&d| (-kappa * d as f64).exp() as f32)
-        .collect())
+    let mut columns = grid.columns();
+    for d in &mut columns {
+        *d = (-kappa * *d as f64).exp() as f32;
+    }
+    Ok(columns)
 }
 
 /// Fills a light's column grid over `domain`. Marches stop once a column exceeds `limit`.
@@ -195,17 +216,21 @@ pub fn light_columns(
         TransmissivityMethod::March => false,
         TransmissivityMethod::Auto => sweep_axis.is_some(),
     };
-    let column = match (use_sweep, sweep_axis) {
+    let [nx, ny, _] = resolution;
+    let (column, strides) = match (use_sweep, sweep_axis) {
         (true, Some(axis)) => {
             let cells = resolution.iter().product();
             let rho = sample_centres_into(density, domain, resolution, WORKING.take(cells));
-            let column = sweep(&rho, light, domain, resolution, axis);
+            let swept = sweep(&rho, light, domain, resolution, axis);
             WORKING.give(rho);
-            column
+            swept
         }
-        _ => march_cells(density, light, domain, resolution, limit),
+        _ => (
+            march_cells(density, light, domain, resolution, limit),
+            [1, nx, nx * ny],
+        ),
     };
-    Ok(LightGrid::new(domain, column))
+    Ok(LightGrid::new(domain, column, strides))
 }
 
 /// The sweep axis and direction for `light`, if the sweep is accurate for it: `(axis, forward)`

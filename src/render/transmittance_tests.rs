@@ -49,10 +49,11 @@ fn constant_density_columns_are_path_lengths() {
     let to_light = -DVec3::new(0.3, -1.0, 0.2).normalize();
     for method in [TransmissivityMethod::March, TransmissivityMethod::Sweep] {
         let grid = light_columns(&density, &light, &domain, method, f64::INFINITY).unwrap();
+        let columns = grid.columns();
         let (mut worst, mut sum, mut count) = (0.0f64, 0.0, 0);
         each_cell(&domain, |index, p| {
             let exact = rho * path_in_cube(p, to_light, 1.0);
-            let err = (grid.columns()[index] as f64 - exact).abs();
+            let err = (columns[index] as f64 - exact).abs();
             worst = worst.max(err);
             sum += err;
             count += 1;
@@ -78,9 +79,10 @@ fn constant_density_columns_are_path_lengths() {
         f64::INFINITY,
     )
     .unwrap();
+    let columns = grid.columns();
     let mut sum = 0.0;
     each_cell(&fine, |index, p| {
-        sum += (grid.columns()[index] as f64 - rho * path_in_cube(p, to_light, 1.0)).abs();
+        sum += (columns[index] as f64 - rho * path_in_cube(p, to_light, 1.0)).abs();
     });
     assert!(sum / 64000.0 < 0.006, "{}", sum / 64000.0);
     // Light straight down an axis: every upstream point is a cell centre, so the sweep is exact.
@@ -93,8 +95,9 @@ fn constant_density_columns_are_path_lengths() {
         f64::INFINITY,
     )
     .unwrap();
+    let columns = grid.columns();
     each_cell(&domain, |index, p| {
-        assert!((grid.columns()[index] as f64 - rho * (1.0 - p.y)).abs() < 1e-5);
+        assert!((columns[index] as f64 - rho * (1.0 - p.y)).abs() < 1e-5);
     });
 }
 
@@ -185,6 +188,7 @@ fn point_light_columns_are_path_lengths() {
         (&inside, TransmissivityMethod::Auto, 1e-5),
     ] {
         let grid = light_columns(&density, light, &domain, method, f64::INFINITY).unwrap();
+        let columns = grid.columns();
         let Light::Point(point) = light else {
             unreachable!()
         };
@@ -192,7 +196,7 @@ fn point_light_columns_are_path_lengths() {
         each_cell(&domain, |index, p| {
             let offset = point.position - p;
             let path = path_in_cube(p, offset.normalize(), 1.0).min(offset.length());
-            worst = worst.max((grid.columns()[index] as f64 - rho * path).abs());
+            worst = worst.max((columns[index] as f64 - rho * path).abs());
         });
         assert!(worst < tolerance, "{method:?}: {worst}");
     }
