@@ -212,11 +212,6 @@ impl Occupancy {
         run.map(|begin| (begin, w.t.min(w.t1)))
             .filter(|&(begin, end)| end > begin)
     }
-
-    /// Ends a walk: `next_run` gives nothing more.
-    pub fn stop(walk: &mut BrickWalk) {
-        walk.done = true;
-    }
 }
 
 /// Where a ray's walk through the brick grid stands (see `Occupancy::walk`).
@@ -230,6 +225,16 @@ pub struct BrickWalk {
     index_step: [i64; 3],
     left: [i64; 3],
     done: bool,
+}
+
+impl BrickWalk {
+    /// A walk with nothing left: that of a ray that misses the box, or one that has stopped.
+    pub fn spent() -> BrickWalk {
+        BrickWalk {
+            done: true,
+            ..BrickWalk::default()
+        }
+    }
 }
 
 /// Top-down classification of the bricks in `[lo, hi)`: returns the range queries made and
@@ -341,16 +346,13 @@ mod tests {
             assert!(a <= centre - 0.5 && a > centre - 0.5 - 0.13, "{a}");
             assert!(b >= centre + 0.5 && b < centre + 0.5 + 0.13, "{b}");
         }
-        // A walk gives the same runs one at a time, nothing after they are spent, and
-        // nothing more once stopped.
+        // A walk gives the same runs one at a time, then nothing; a spent walk gives nothing.
         let mut walk = grid.walk(&ray, t0, t1);
         assert_eq!(grid.next_run(&mut walk), Some(runs[0]));
         assert_eq!(grid.next_run(&mut walk), Some(runs[1]));
         assert_eq!(grid.next_run(&mut walk), None);
         assert_eq!(grid.next_run(&mut walk), None);
-        let mut walk = grid.walk(&ray, t0, t1);
-        Occupancy::stop(&mut walk);
-        assert_eq!(grid.next_run(&mut walk), None);
+        assert_eq!(grid.next_run(&mut BrickWalk::spent()), None);
         // A diagonal ray through nothing but empty bricks gets no runs at all.
         let diagonal = Ray {
             origin: DVec3::new(-1.0, -2.0, -2.0),

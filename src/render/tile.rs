@@ -9,7 +9,7 @@
 use super::adaptive::Snapshot;
 use super::camera::jitter;
 use super::march::Frame;
-use super::space::{BrickWalk, Occupancy, clip_to_box};
+use super::space::{BrickWalk, clip_to_box};
 use glam::DVec3;
 
 /// Counts for `--profile` and tests.
@@ -169,11 +169,10 @@ impl Rays {
                     let ray = frame.raster.ray(x, y, jx, jy);
                     // Runs are found as the march reaches them, so a ray that turns opaque
                     // never walks the bricks behind.
-                    let mut walk = BrickWalk::default();
-                    Occupancy::stop(&mut walk);
-                    if let Some((t0, t1)) = clip_to_box(&ray, &frame.bounds) {
-                        walk = frame.occupancy.walk(&ray, t0, t1);
-                    }
+                    let mut walk = match clip_to_box(&ray, &frame.bounds) {
+                        Some((t0, t1)) => frame.occupancy.walk(&ray, t0, t1),
+                        None => BrickWalk::spent(),
+                    };
                     let (t, end) = frame
                         .occupancy
                         .next_run(&mut walk)

@@ -9,8 +9,8 @@
 //! points per register through hashing, gradient choice and blending, with no table lookups
 //! and no call per point. Perlin values alone, what fills and renders mostly ask for, also have
 //! loops written with AVX2 and AVX-512 intrinsics (`perlin_lanes.rs`) that give the generic
-//! loop's bits with fewer instructions. Lattice spacing is 1: frequency and offsets are applied by the
-//! caller.
+//! loop's bits with fewer instructions. Lattice spacing is 1: frequency and offsets are applied
+//! by the caller.
 //!
 //! Amplitudes, for displacement and interval bounds (lattice spacing 1; a noise read at
 //! frequency `f` has slopes `f` times larger). "Bound" is what [`value_range`] and
