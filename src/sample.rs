@@ -119,9 +119,14 @@ pub trait GridSource: Send + Sync + Debug {
     fn background(&self) -> Vec<f64>;
     /// Cell spacing along the grid's own axes (for central differences).
     fn cell_size(&self) -> DVec3;
-    /// A conservative range `(lo, hi)` per component of the values inside `region`.
-    /// May fill the parts of the grid it needs.
+    /// A conservative range `(lo, hi)` per component of the values inside `region`, for any
+    /// interpolation. May fill the parts of the grid it needs.
     fn range(&self, region: &Aabb) -> Vec<(f64, f64)>;
+    /// The same for reads through `interp` only, which a grid may bound more tightly.
+    fn range_read(&self, region: &Aabb, interp: Interp) -> Vec<(f64, f64)> {
+        let _ = interp;
+        self.range(region)
+    }
     /// Where the samples sit, for schemes that look at the cells around a point (the
     /// clamp of MacCormack advection).
     fn lattice(&self) -> Option<Lattice> {

@@ -350,7 +350,7 @@ fn kernel_ranges(kernel: &Kernel, args: &[Interval], out: &mut [Interval]) {
             out[1..4].fill(Interval::new(-slope, slope));
             out[4..].fill(ALL);
         }
-        Kernel::GridValue { grid, .. } => {
+        Kernel::GridValue { grid, interp, .. } => {
             let region = Aabb::new(
                 DVec3::new(args[0].lo, args[1].lo, args[2].lo),
                 DVec3::new(args[0].hi, args[1].hi, args[2].hi),
@@ -362,7 +362,7 @@ fn kernel_ranges(kernel: &Kernel, args: &[Interval], out: &mut [Interval]) {
             let within = if inside.is_empty() {
                 vec![]
             } else {
-                grid.range(&inside)
+                grid.range_read(&inside, *interp)
             };
             for (c, o) in out.iter_mut().enumerate() {
                 let mut r: Option<Interval> = within.get(c).map(|&(lo, hi)| Interval::new(lo, hi));

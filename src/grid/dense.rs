@@ -198,9 +198,10 @@ impl DenseGrid {
         reach::range(
             &lattice,
             region,
+            Interp::Cubic,
             &self.background,
             BLOCK,
-            |[bx, by, bz], samples| {
+            |[bx, by, bz], _, samples| {
                 let block = bx + self.blocks[0] * (by + self.blocks[1] * bz);
                 for (c, s) in samples.iter_mut().enumerate() {
                     let r = self.block_ranges[block * self.width + c];

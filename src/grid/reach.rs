@@ -5,11 +5,12 @@
 //! The one key decision: the range is computed from the *samples* the region's stencils touch,
 //! then widened about its midpoint by the largest sum of absolute interpolation weights that
 //! can occur there (`interp`'s bounds: cubic weights go negative, the border extrapolates), so
-//! it is conservative for every interpolation rule; a region whose samples are all one value
-//! gets exactly that value, so empty space stays exactly empty.
+//! it is conservative for every interpolation rule; a region whose samples are all zero gets
+//! exactly zero, so empty space stays exactly empty. Reads through a known rule reach only the
+//! cells that rule reads (two per axis for a linear read, four for a cubic one).
 
 use crate::grid::interp::{BORDER_WEIGHT_BOUND, CUBIC_WEIGHT_BOUND};
-use crate::sample::{Aabb, Lattice};
+use crate::sample::{Aabb, Interp, Lattice};
 use glam::{BVec3, DVec3};
 
 /// The cells a region reads along each axis and the weight bound that applies there.
@@ -50,8 +51,16 @@ pub fn index_box(lattice: &Lattice, region: &Aabb) -> (DVec3, DVec3, bool) {
     (lo, hi, leaves)
 }
 
-/// What `region` reads of a grid on `lattice`; `None` when it misses the domain box.
-pub fn reach(lattice: &Lattice, region: &Aabb) -> Option<Reach> {
+impl Reach {
+    /// How many cells the region reads.
+    pub fn cells(&self) -> usize {
+        (0..3).map(|a| self.last[a] + 1 - self.first[a]).product()
+    }
+}
+
+/// What `region` reads of a grid on `lattice` through `interp`; `None` when it misses the
+/// domain box.
+pub fn reach(lattice: &Lattice, region: &Aabb, interp: Interp) -> Option<Reach> {
     let (lo, hi, leaves) = index_box(lattice, region);
     let mut first = [0usize; 3];
     let mut last = [0usize; 3];
@@ -63,15 +72,30 @@ pub fn reach(lattice: &Lattice, region: &Aabb) -> Option<Reach> {
         if low.partial_cmp(&high).is_none_or(|o| o.is_gt()) {
             return None;
         }
-        // A cubic stencil reads one cell below floor(u) and two above.
-        first[a] = (low.floor() - 1.0).max(0.0) as usize;
-        last[a] = ((high.floor() + 2.0).max(0.0) as usize).min(cells - 1);
+        let inside = low >= 0.0 && high <= (cells - 1) as f64;
+        match interp {
+            Interp::Cubic => {
+                // A cubic stencil reads one cell below floor(u) and two above.
+                first[a] = (low.floor() - 1.0).max(0.0) as usize;
+                last[a] = ((high.floor() + 2.0).max(0.0) as usize).min(cells - 1);
+            }
+            Interp::Linear => {
+                // A linear stencil reads the cell at or below u, kept below the last cell, and
+                // the next one (`interp::axis_stencil`).
+                let below = |u: f64| (u.max(0.0).floor() as usize).min(cells.saturating_sub(2));
+                first[a] = below(low);
+                last[a] = (below(high) + 1).min(cells - 1);
+            }
+        }
         spread *= if cells == 1 {
             1.0
-        } else if low >= 0.0 && high <= (cells - 1) as f64 {
+        } else if !inside {
+            BORDER_WEIGHT_BOUND
+        } else if interp == Interp::Cubic {
             CUBIC_WEIGHT_BOUND
         } else {
-            BORDER_WEIGHT_BOUND
+            // Linear weights inside the box are convex.
+            1.0
         };
     }
     Some(Reach {
@@ -90,7 +114,9 @@ pub fn widen(samples: Vec<(f64, f64)>, background: &[f64], reach: &Reach) -> Vec
         .into_iter()
         .zip(background)
         .map(|((low, high), &b)| {
-            let (low, high) = if low == high {
+            // Zeros sum to exactly zero whatever the weights; any other value may come back an
+            // ulp or so off, since rounded weights need not sum to exactly one.
+            let (low, high) = if low == 0.0 && high == 0.0 {
                 (low, high)
             } else if low.is_finite() && high.is_finite() {
                 let middle = 0.5 * (low + high);
@@ -111,27 +137,28 @@ pub fn widen(samples: Vec<(f64, f64)>, background: &[f64], reach: &Reach) -> Vec
 
 /// The range of a grid read over `region`: the blocks of `block` cells per side that its
 /// stencils reach, each block's per-component extremes merged by `merge_block` (given the
-/// block's coordinates and the running extremes), widened as [`widen`] says. Outside the
-/// domain, or for an empty region, the background.
+/// block's coordinates, the first and last cell the region reads, and the running extremes),
+/// widened as [`widen`] says. Outside the domain, or for an empty region, the background.
 pub fn range(
     lattice: &Lattice,
     region: &Aabb,
+    interp: Interp,
     background: &[f64],
     block: usize,
-    mut merge_block: impl FnMut([usize; 3], &mut [(f64, f64)]),
+    mut merge_block: impl FnMut([usize; 3], &Reach, &mut [(f64, f64)]),
 ) -> Vec<(f64, f64)> {
     let flat: Vec<(f64, f64)> = background.iter().map(|&b| (b, b)).collect();
     if region.is_empty() {
         return flat;
     }
-    let Some(reach) = reach(lattice, region) else {
+    let Some(reach) = reach(lattice, region, interp) else {
         return flat;
     };
     let mut samples = vec![(f64::INFINITY, f64::NEG_INFINITY); background.len()];
     for bz in reach.first[2] / block..=reach.last[2] / block {
         for by in reach.first[1] / block..=reach.last[1] / block {
             for bx in reach.first[0] / block..=reach.last[0] / block {
-                merge_block([bx, by, bz], &mut samples);
+                merge_block([bx, by, bz], &reach, &mut samples);
             }
         }
     }

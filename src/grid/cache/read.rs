@@ -13,8 +13,10 @@
 //! `range` reports what the *interpolant* can reach, not only the stored samples: cubic weights
 //! can be negative and the border extrapolates, so the samples' range is widened around its
 //! midpoint by the largest sum of absolute weights that can occur in the region (see
-//! `interp`). A region whose samples all equal one value gets exactly that value, so empty
-//! space stays exactly empty.
+//! `interp`). A region whose samples are all zero gets exactly zero, so empty space stays
+//! exactly empty. A small region that covers part of a brick reads the extremes of the cells it
+//! reaches rather than of the whole brick, so a render's empty-space grid finds the empty cells
+//! beside a surface, not only the empty bricks.
 
 #[cfg(test)]
 mod tests;
@@ -42,6 +44,10 @@ struct Stencil<'a> {
 }
 
 const BRICK_STEP: [usize; 3] = [1, 2, 4];
+/// A range over at most this many cells reads the cells themselves where it covers part of a
+/// brick, rather than the whole brick's extremes: a render's empty-space bricks are a few cells
+/// across, and a cache brick that holds a surface is mostly empty on one side of it.
+const EXACT_RANGE_CELLS: usize = 512;
 const CELL_STEP: [usize; 3] = [1, BRICK, BRICK * BRICK];
 
 impl Cache {
@@ -57,6 +63,66 @@ impl Cache {
         };
         let inside = local.cmpge(DVec3::ZERO).all() && local.cmple(self.domain.lengths).all();
         inside.then(|| local / self.domain.cell - DVec3::splat(0.5))
+    }
+
+    /// Where cell `(0, 0, 0)` of `domain` sits among this cache's cells, when `domain`'s cells
+    /// are this cache's own: the same rotation and cell size, an origin a whole number of
+    /// cells inside (to the bit, so they are the same cells), as for a render's light grid
+    /// fitted over the part of a cache that holds density.
+    fn cell_offset(&self, domain: &Domain) -> Option<[usize; 3]> {
+        if *domain == self.domain {
+            return Some([0; 3]);
+        }
+        if !self.axis_aligned || domain.rotation != self.domain.rotation {
+            return None;
+        }
+        let mut offset = [0usize; 3];
+        for a in 0..3 {
+            let cell = self.domain.cell[a];
+            let steps = ((domain.origin[a] - self.domain.origin[a]) / cell).round();
+            let exact = domain.cell[a] == cell
+                && steps >= 0.0
+                && self.domain.origin[a] + steps * cell == domain.origin[a];
+            if !exact {
+                return None;
+            }
+            offset[a] = steps as usize;
+        }
+        Some(offset)
+    }
+
+    /// Merges into `samples` the extremes of the cells `first..=last` (grid cells, all inside
+    /// the brick whose first cell is `lo` and whose values are `values`); a NaN makes its
+    /// component's range unbounded, as a brick's own range does.
+    fn merge_cells(
+        &self,
+        values: &[f32],
+        lo: [usize; 3],
+        first: [usize; 3],
+        last: [usize; 3],
+        samples: &mut [(f64, f64)],
+    ) {
+        let w = self.width;
+        for z in first[2]..=last[2] {
+            for y in first[1]..=last[1] {
+                let row = local_index(first[0] - lo[0], y - lo[1], z - lo[2]) * w;
+                let cells = &values[row..row + (last[0] + 1 - first[0]) * w];
+                for (c, (low, high)) in samples.iter_mut().enumerate() {
+                    // `f32::min` and `max` pass over NaN, so it is looked for on its own; the
+                    // fold has no branch and vectorises for scalar caches.
+                    let (least, most, nan) = cells.iter().skip(c).step_by(w).fold(
+                        (f32::INFINITY, f32::NEG_INFINITY, false),
+                        |(least, most, nan), &v| (least.min(v), most.max(v), nan | v.is_nan()),
+                    );
+                    if nan {
+                        (*low, *high) = (f64::NEG_INFINITY, f64::INFINITY);
+                    } else {
+                        *low = low.min(f64::from(least));
+                        *high = high.max(f64::from(most));
+                    }
+                }
+            }
+        }
     }
 
     /// Trilinear values of a cache of `W` components with at least two cells on every axis:
@@ -528,9 +594,15 @@ impl GridSource for Cache {
         }
     }
 
-    /// Copies the stored cells, a brick's row at a time, when `domain` is this cache's own.
+    /// Copies the stored cells, a brick's row at a time, when `domain`'s cells are among this
+    /// cache's own (`cell_offset`).
     fn cells(&self, domain: &Domain, lo: [usize; 3], hi: [usize; 3], out: &mut [f32]) -> bool {
-        if *domain != self.domain || (0..3).any(|a| hi[a] > self.shape.cells[a]) {
+        let Some(offset) = self.cell_offset(domain) else {
+            return false;
+        };
+        let lo: [usize; 3] = std::array::from_fn(|a| lo[a] + offset[a]);
+        let hi: [usize; 3] = std::array::from_fn(|a| hi[a] + offset[a]);
+        if (0..3).any(|a| hi[a] > self.shape.cells[a]) {
             return false;
         }
         let width = self.width;
@@ -559,13 +631,39 @@ impl GridSource for Cache {
     /// Fills the bricks whose cells the interpolant reads inside `region`, on the calling
     /// thread (no rayon: this may run inside another cache's brick fill).
     fn range(&self, region: &Aabb) -> Vec<(f64, f64)> {
+        self.range_read(region, Interp::Cubic)
+    }
+
+    /// As `range`, for reads through `interp` only: a linear read reaches fewer cells.
+    fn range_read(&self, region: &Aabb, interp: Interp) -> Vec<(f64, f64)> {
         let lattice = self.domain.lattice();
-        reach::range(&lattice, region, &self.background, BRICK, |b, samples| {
-            let brick = self.brick(self.shape.brick_index(b));
-            for (c, (low, high)) in samples.iter_mut().enumerate() {
-                *low = low.min(f64::from(brick.range[c].0));
-                *high = high.max(f64::from(brick.range[c].1));
-            }
-        })
+        reach::range(
+            &lattice,
+            region,
+            interp,
+            &self.background,
+            BRICK,
+            |b, reach, samples| {
+                let index = self.shape.brick_index(b);
+                let brick = self.brick(index);
+                let (lo, hi) = self.shape.brick_cells(index);
+                let first: [usize; 3] = std::array::from_fn(|a| reach.first[a].max(lo[a]));
+                let last: [usize; 3] = std::array::from_fn(|a| reach.last[a].min(hi[a] - 1));
+                let part: usize = (0..3).map(|a| last[a] + 1 - first[a]).product();
+                let whole = first == lo && (0..3).all(|a| last[a] + 1 == hi[a]);
+                let exact = reach.cells() <= EXACT_RANGE_CELLS && !whole;
+                match brick.values.as_deref() {
+                    Some(values) if exact && part > 0 => {
+                        self.merge_cells(values, lo, first, last, samples)
+                    }
+                    _ => {
+                        for (c, (low, high)) in samples.iter_mut().enumerate() {
+                            *low = low.min(f64::from(brick.range[c].0));
+                            *high = high.max(f64::from(brick.range[c].1));
+                        }
+                    }
+                }
+            },
+        )
     }
 }

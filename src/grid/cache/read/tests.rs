@@ -1,5 +1,6 @@
 use crate::grid::cache::test_support::*;
 use crate::grid::cache::{BRICK, Cache};
+use crate::grid::domain::Domain;
 use crate::sample::{Aabb, FnField, GridSource, Interp};
 use glam::DVec3;
 use std::sync::Arc;
@@ -251,15 +252,56 @@ fn range_of_empty_space_is_exactly_empty() {
     let d = domain(DVec3::ZERO, DVec3::ONE, DVec3::ZERO, 0.25);
     let field = FnField::new(1, |_p: DVec3, out: &mut [f64]| out[0] = 2.0);
     let cache = Cache::from_field(d, 1, Arc::new(field), vec![-3.0], "e".into()).unwrap();
-    assert_eq!(
-        cache.range(&Aabb::new(DVec3::splat(0.1), DVec3::splat(0.9))),
-        vec![(2.0, 2.0)]
-    );
-    assert_eq!(
-        cache.range(&Aabb::new(DVec3::splat(0.5), DVec3::splat(1.5))),
-        vec![(-3.0, 2.0)]
-    );
-    assert_eq!(cache.range(&Aabb::everything()), vec![(-3.0, 2.0)]);
+    // A constant other than zero is kept to within the rounding of the weighted sum: the
+    // weights of a read need not sum to exactly one, so neither does its value.
+    let inside = Aabb::new(DVec3::splat(0.1), DVec3::splat(0.9));
+    let (lo, hi) = cache.range(&inside)[0];
+    assert!(lo < 2.0 && hi > 2.0 && hi - lo < 1e-11, "{lo} {hi}");
+    for v in sample(
+        &cache,
+        Interp::Linear,
+        &points_in(inside.min, inside.max, 2000),
+    ) {
+        assert!(lo <= v && v <= hi, "{v} outside [{lo}, {hi}]");
+    }
+    for region in [
+        Aabb::new(DVec3::splat(0.5), DVec3::splat(1.5)),
+        Aabb::everything(),
+    ] {
+        let (lo, hi) = cache.range(&region)[0];
+        assert!(lo == -3.0 && hi > 2.0 && hi < 2.0 + 1e-11, "{lo} {hi}");
+    }
+}
+
+#[test]
+fn small_regions_read_the_cells_they_reach() {
+    // One brick holding a ball's surface: a small region beside it in the same brick reads
+    // only its own empty cells, while the brick as a whole is not empty.
+    let d = domain(DVec3::ZERO, DVec3::ONE, DVec3::ZERO, 1.0 / 32.0);
+    let ball = Ball {
+        centre: DVec3::splat(0.125),
+        radius: 0.06,
+    };
+    let field = FnField::new(1, move |p: DVec3, out: &mut [f64]| out[0] = ball.density(p));
+    let cache = Cache::from_field(d, 1, Arc::new(field), vec![0.0], "s".into()).unwrap();
+    // Cells 0–7 along each axis form the first brick; the ball covers cells near 4.
+    let brick = Aabb::new(DVec3::ZERO, DVec3::splat(0.25));
+    assert!(cache.range(&brick)[0].1 > 0.5);
+    // Cells 0–1 are more than a radius from the centre along the diagonal corner.
+    let corner = Aabb::new(DVec3::splat(0.0), DVec3::splat(0.03));
+    assert_eq!(cache.range_read(&corner, Interp::Linear), vec![(0.0, 0.0)]);
+    // A cubic read reaches one cell further, still empty here; a region reaching the ball is not.
+    assert_eq!(cache.range_read(&corner, Interp::Cubic), vec![(0.0, 0.0)]);
+    let near = Aabb::new(DVec3::splat(0.1), DVec3::splat(0.11));
+    assert!(cache.range_read(&near, Interp::Linear)[0].1 > 0.5);
+    // Every linear read in the corner region is zero, as the range says.
+    for v in sample(
+        &cache,
+        Interp::Linear,
+        &points_in(corner.min, corner.max, 500),
+    ) {
+        assert_eq!(v, 0.0);
+    }
 }
 
 #[test]
@@ -297,4 +339,68 @@ fn linear_matrix_field_is_reproduced_with_its_jacobian_layout() {
             }
         }
     }
+}
+
+#[test]
+fn a_domain_inside_the_cache_on_its_cells_copies_them() {
+    // Cells of 1/16 over [-1, 1]³; a fitted domain over [-0.5, 0.75] × [0, 1] × [-1, 0.25] has
+    // the same cells, offset by (8, 16, 0).
+    let d = domain(
+        DVec3::splat(-1.0),
+        DVec3::splat(2.0),
+        DVec3::ZERO,
+        1.0 / 16.0,
+    );
+    let wave = |p: DVec3| (p.x * 3.0).sin() + p.y * p.z;
+    let cache = scalar_cache(d, wave);
+    let inner = Domain::fitted(
+        DVec3::new(-0.5, 0.0, -1.0),
+        DVec3::new(1.25, 1.0, 1.25),
+        DVec3::ZERO,
+        1.0 / 16.0,
+    )
+    .unwrap();
+    let (lo, hi) = ([3, 0, 5], [12, 16, 20]);
+    let count = (0..3).map(|a| hi[a] - lo[a]).product::<usize>();
+    let mut copied = vec![0f32; count];
+    assert!(GridSource::cells(&cache, &inner, lo, hi, &mut copied));
+    // The values a read gives at the inner domain's cell centres, which lie on the cache's.
+    let mut centres = Vec::new();
+    for k in lo[2]..hi[2] {
+        for j in lo[1]..hi[1] {
+            for i in lo[0]..hi[0] {
+                centres.push(inner.cell_center(i, j, k));
+            }
+        }
+    }
+    let read = sample(&cache, Interp::Linear, &centres);
+    for ((c, r), p) in copied.iter().zip(&read).zip(&centres) {
+        assert_eq!(f64::from(*c), *r, "at {p}");
+    }
+    // Cells that are not the cache's own (shifted by half a cell, or another size) are
+    // refused, and so is a domain reaching past the cache.
+    let shifted = Domain::fitted(
+        DVec3::new(-0.5 + 1.0 / 32.0, 0.0, -1.0),
+        DVec3::new(1.25, 1.0, 1.25),
+        DVec3::ZERO,
+        1.0 / 16.0,
+    )
+    .unwrap();
+    assert!(!GridSource::cells(&cache, &shifted, lo, hi, &mut copied));
+    let finer = Domain::fitted(DVec3::splat(-0.5), DVec3::ONE, DVec3::ZERO, 1.0 / 32.0).unwrap();
+    assert!(!GridSource::cells(
+        &cache,
+        &finer,
+        [0; 3],
+        [2; 3],
+        &mut copied[..8]
+    ));
+    let beyond = Domain::fitted(DVec3::splat(0.5), DVec3::ONE, DVec3::ZERO, 1.0 / 16.0).unwrap();
+    assert!(!GridSource::cells(
+        &cache,
+        &beyond,
+        [0; 3],
+        [16; 3],
+        &mut vec![0f32; 4096]
+    ));
 }
