@@ -56,20 +56,27 @@ fn voxel() -> f64 {
 }
 
 /// Loads the grid and renders it once at `step` (world units) into `out`, with `shadows`
-/// "cache" or "march".
-fn render_script(grid: &Path, out: &Path, step: f64, shadows: &str) -> String {
+/// "cache" or "march" and, where given, the light cache's cell size `shadow_cell`.
+fn render_script(
+    grid: &Path,
+    out: &Path,
+    step: f64,
+    shadows: &str,
+    shadow_cell: Option<f64>,
+) -> String {
     let v = voxel();
     let kappa = (ABSORB + SCATTER) / v;
     let strength = LIGHT_COLOR * SCATTER / v;
     let [lx, ly, lz] = TOWARDS_LIGHT;
     let [ex, ey, ez] = EYE;
+    let cell = shadow_cell.map_or(String::new(), |c| format!(", shadowcell = {c}"));
     format!(
         "scalarfield rho = cacheload(\"{grid}\", \"density\");
 camera cam = camera(({ex}, {ey}, {ez}), (0, 0, 0), (0, 1, 0), {FOV});
 light key = distantlight(({}, {}, {}), ({strength}, {strength}, {strength}));
 float t0 = clock();
 render(\"{out}\", density = rho, camera = cam, lights = {{key}}, kappa = {kappa}, step = {step},
-       width = {WIDTH}, height = {HEIGHT}, shadows = \"{shadows}\");
+       width = {WIDTH}, height = {HEIGHT}, shadows = \"{shadows}\"{cell});
 float t1 = clock();
 print(\"render_seconds\", t1 - t0);
 ",
@@ -217,10 +224,10 @@ fn felt_runs(
     grid: &Path,
     out: &Path,
     step: f64,
-    shadows: &str,
+    (shadows, shadow_cell): (&str, Option<f64>),
     runs: usize,
 ) -> FeltRun {
-    let script = render_script(grid, out, step, shadows);
+    let script = render_script(grid, out, step, shadows, shadow_cell);
     if runs > 1 {
         run_script(dir, "render.felt", &script);
     }
@@ -322,7 +329,7 @@ fn main() {
         ("felt, marched shadows (1 run)", "march", 1),
     ] {
         let path = dir.join(format!("felt_{shadows}.exr"));
-        let r = felt_runs(dir, &grid, &path, v, shadows, runs);
+        let r = felt_runs(dir, &grid, &path, v, (shadows, None), runs);
         rows.push(Row {
             name: name.to_string(),
             render: r.render,
@@ -381,6 +388,26 @@ fn main() {
         marched.cpu / rows[1].cpu
     );
 
+    // What the light cache's resolution costs and buys at the camera step of the comparison.
+    println!(
+        "\n## felt light-cache study ({WIDTH}x{HEIGHT}, camera step 1 voxel, median of {RUNS}): shadowcell in voxels"
+    );
+    println!(
+        "| shadowcell (voxels) | whole s | whole CPU s | RGB RMSE vs lighting reference | whole s / vdb_render shadow step 1 voxel |"
+    );
+    println!("|---|---|---|---|---|");
+    for voxels in [1.0, 2.0, 4.0] {
+        let path = dir.join(format!("cell_{voxels}.exr"));
+        let r = felt_runs(dir, &grid, &path, v, ("cache", Some(voxels * v)), RUNS);
+        let (lit, _) = compare(&read_rgba(&path), &lighting_reference, 0..3);
+        println!(
+            "| {voxels} | {:.3} | {:.2} | {lit:.2e} | {:.2} |",
+            r.whole,
+            r.cpu,
+            r.whole / rows[1].whole
+        );
+    }
+
     println!(
         "\n## felt step study ({WIDTH}x{HEIGHT}, same scene, cached shadows), reference step = voxel/8 = 2/{}",
         CELLS * 8
@@ -393,7 +420,7 @@ fn main() {
     );
     println!("|---|---|---|---|---|---|");
     let reference_path = dir.join("reference.exr");
-    let reference_run = felt_runs(dir, &grid, &reference_path, v / 8.0, "cache", 1);
+    let reference_run = felt_runs(dir, &grid, &reference_path, v / 8.0, ("cache", None), 1);
     let reference = read_rgba(&reference_path);
     // (step in voxels, render s, RGB RMSE vs the lighting reference) of each study row.
     let mut study = Vec::new();
@@ -403,7 +430,7 @@ fn main() {
         let (run, image) = if divisions == CELLS * 8 {
             (reference_run.render, read_rgba(&reference_path))
         } else {
-            let run = felt_runs(dir, &grid, &path, step, "cache", 1);
+            let run = felt_runs(dir, &grid, &path, step, ("cache", None), 1);
             (run.render, read_rgba(&path))
         };
         let (rgba, _) = compare(&image, &reference, 0..4);
