@@ -44,10 +44,12 @@ struct Stencil<'a> {
 }
 
 const BRICK_STEP: [usize; 3] = [1, 2, 4];
-/// A range over at most this many cells reads the cells themselves where it covers part of a
-/// brick, rather than the whole brick's extremes: a render's empty-space bricks are a few cells
-/// across, and a cache brick that holds a surface is mostly empty on one side of it.
-const EXACT_RANGE_CELLS: usize = 512;
+/// A range over at most this many cells (six per axis) reads the cells themselves where it
+/// covers part of a brick, rather than the whole brick's extremes: a render's empty-space bricks
+/// at a one-voxel step are four cells across, and a cache brick that holds a surface is mostly
+/// empty on one side of it. Larger regions keep to brick extremes, which cost one lookup each
+/// (at 512 cells the render's empty-space build took a fifth longer and skipped nothing more).
+const EXACT_RANGE_CELLS: usize = 216;
 const CELL_STEP: [usize; 3] = [1, BRICK, BRICK * BRICK];
 
 impl Cache {
@@ -109,11 +111,16 @@ impl Cache {
                 let cells = &values[row..row + (last[0] + 1 - first[0]) * w];
                 for (c, (low, high)) in samples.iter_mut().enumerate() {
                     // `f32::min` and `max` pass over NaN, so it is looked for on its own; the
-                    // fold has no branch and vectorises for scalar caches.
-                    let (least, most, nan) = cells.iter().skip(c).step_by(w).fold(
-                        (f32::INFINITY, f32::NEG_INFINITY, false),
-                        |(least, most, nan), &v| (least.min(v), most.max(v), nan | v.is_nan()),
-                    );
+                    // fold has no branch, and for a scalar cache (no stride) it vectorises.
+                    let extremes = |(least, most, nan): (f32, f32, bool), &v: &f32| {
+                        (least.min(v), most.max(v), nan | v.is_nan())
+                    };
+                    let start = (f32::INFINITY, f32::NEG_INFINITY, false);
+                    let (least, most, nan) = if w == 1 {
+                        cells.iter().fold(start, extremes)
+                    } else {
+                        cells.iter().skip(c).step_by(w).fold(start, extremes)
+                    };
                     if nan {
                         (*low, *high) = (f64::NEG_INFINITY, f64::INFINITY);
                     } else {
