@@ -83,7 +83,7 @@ impl Cache {
             let cell = self.domain.cell[a];
             let steps = ((domain.origin[a] - self.domain.origin[a]) / cell).round();
             let exact = domain.cell[a] == cell
-                && steps >= 0.0
+                && (0.0..self.shape.cells[a] as f64).contains(&steps)
                 && self.domain.origin[a] + steps * cell == domain.origin[a];
             if !exact {
                 return None;

@@ -403,4 +403,13 @@ fn a_domain_inside_the_cache_on_its_cells_copies_them() {
         [16; 3],
         &mut vec![0f32; 4096]
     ));
+    // A domain on the same lattice far outside the cache is refused, not indexed.
+    let far = Domain::fitted(DVec3::splat(1.0e6), DVec3::ONE, DVec3::ZERO, 1.0 / 16.0).unwrap();
+    assert!(!GridSource::cells(
+        &cache,
+        &far,
+        [0; 3],
+        [1; 3],
+        &mut copied[..1]
+    ));
 }
