@@ -110,8 +110,8 @@ impl Cache {
                 let row = local_index(first[0] - lo[0], y - lo[1], z - lo[2]) * w;
                 let cells = &values[row..row + (last[0] + 1 - first[0]) * w];
                 for (c, (low, high)) in samples.iter_mut().enumerate() {
-                    // `f32::min` and `max` pass over NaN, so it is looked for on its own; the
-                    // fold has no branch, and for a scalar cache (no stride) it vectorises.
+                    // `f32::min` and `max` pass over NaN, so it is looked for on its own, in
+                    // the same branch-free fold; a scalar cache's row is read without a stride.
                     let extremes = |(least, most, nan): (f32, f32, bool), &v: &f32| {
                         (least.min(v), most.max(v), nan | v.is_nan())
                     };
