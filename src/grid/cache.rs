@@ -57,6 +57,11 @@ struct Brick {
     /// Smallest and largest value per component over the brick's cells; `(-inf, inf)` when a
     /// value is NaN.
     range: [(f32, f32); MAX_WIDTH],
+    /// Which cells hold anything but zero (in some component, NaN included): bit `x` of byte
+    /// `y + 8 z`. A range over part of the brick is exactly zero where its cells' bits are all
+    /// clear. Kept only for a brick with values and some zero cells (a pointer in the table,
+    /// 64 bytes beside the values); `None` says nothing.
+    nonzero: Option<Box<[u8; BRICK * BRICK]>>,
 }
 
 /// Cell counts and the brick table's shape.
@@ -489,6 +494,7 @@ impl Cache {
         Brick {
             values: None,
             range,
+            nonzero: None,
         }
     }
 }

@@ -276,6 +276,7 @@ impl Cache {
             mut range,
             has_nan,
             all_background,
+            nonzero,
         } = match width {
             1 => scan::<1>(&values, size, &self.background_brick),
             3 => scan::<3>(&values, size, &self.background_brick),
@@ -299,7 +300,22 @@ impl Cache {
                 .fetch_add(values.len() as u64 * 4, Ordering::Relaxed);
             Some(values)
         };
-        Brick { values, range }
+        let cells = size[0] * size[1] * size[2];
+        let some_zero = nonzero
+            .iter()
+            .map(|row| row.count_ones() as usize)
+            .sum::<usize>()
+            < cells;
+        let nonzero = (values.is_some() && some_zero).then(|| {
+            self.stored_bytes
+                .fetch_add(nonzero.len() as u64, Ordering::Relaxed);
+            Box::new(nonzero)
+        });
+        Brick {
+            values,
+            range,
+            nonzero,
+        }
     }
 
     /// Counts a brick's non-finite values and keeps the lowest-numbered cell holding one.
@@ -356,6 +372,8 @@ struct Scan {
     has_nan: [bool; MAX_WIDTH],
     /// Does every cell equal the background, bit for bit?
     all_background: bool,
+    /// Cells with a component other than zero, as `Brick::nonzero`.
+    nonzero: [u8; BRICK * BRICK],
 }
 
 /// Scans the cells of a brick whose cells span `size`, with `W` components each.
@@ -365,10 +383,15 @@ fn scan<const W: usize>(values: &[f32], size: [usize; 3], background: &[f32]) ->
     let mut nan = [false; W];
     let mut differs = false;
     let background: [u32; W] = std::array::from_fn(|c| background[c].to_bits());
+    let mut nonzero = [0u8; BRICK * BRICK];
     for z in 0..size[2] {
         for y in 0..size[1] {
             let at = local_index(0, y, z) * W;
             let (samples, _) = values[at..at + size[0] * W].as_chunks::<W>();
+            // NaN compares unequal to zero, so it counts as not zero.
+            nonzero[y + BRICK * z] = samples.iter().enumerate().fold(0u8, |bits, (x, sample)| {
+                bits | (u8::from(sample.iter().any(|&v| v != 0.0)) << x)
+            });
             for sample in samples {
                 for c in 0..W {
                     let v = sample[c];
@@ -386,6 +409,7 @@ fn scan<const W: usize>(values: &[f32], size: [usize; 3], background: &[f32]) ->
         range: [(f32::INFINITY, f32::NEG_INFINITY); MAX_WIDTH],
         has_nan: [false; MAX_WIDTH],
         all_background: !differs,
+        nonzero,
     };
     for c in 0..W {
         scan.range[c] = (low[c], high[c]);

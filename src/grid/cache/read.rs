@@ -435,6 +435,21 @@ impl Cache {
     }
 }
 
+/// Whether every cell `first..=last` (grid cells, inside the brick whose first cell is `lo`)
+/// has its bit clear in the brick's `nonzero` rows: then they all hold exactly zero.
+fn all_zero(
+    nonzero: &[u8; BRICK * BRICK],
+    lo: [usize; 3],
+    first: [usize; 3],
+    last: [usize; 3],
+) -> bool {
+    let run = last[0] + 1 - first[0];
+    let bits = (((1u16 << run) - 1) << (first[0] - lo[0])) as u8;
+    (first[2]..=last[2]).all(|z| {
+        (first[1]..=last[1]).all(|y| nonzero[(y - lo[1]) + BRICK * (z - lo[2])] & bits == 0)
+    })
+}
+
 impl PointRead for Cache {
     #[inline(always)]
     fn index_of(&self, p: DVec3) -> Option<DVec3> {
@@ -662,6 +677,21 @@ impl GridSource for Cache {
                 match brick.values.as_deref() {
                     Some(values) if exact && part > 0 => {
                         self.merge_cells(values, lo, first, last, samples)
+                    }
+                    // A larger region's part of the brick may still be all zeros, as beside a
+                    // surface: the brick's bit rows say so without reading its cells.
+                    Some(_)
+                        if !whole
+                            && part > 0
+                            && brick
+                                .nonzero
+                                .as_deref()
+                                .is_some_and(|rows| all_zero(rows, lo, first, last)) =>
+                    {
+                        for (low, high) in samples.iter_mut() {
+                            *low = low.min(0.0);
+                            *high = high.max(0.0);
+                        }
                     }
                     _ => {
                         for (c, (low, high)) in samples.iter_mut().enumerate() {

@@ -413,3 +413,32 @@ fn a_domain_inside_the_cache_on_its_cells_copies_them() {
         &mut copied[..1]
     ));
 }
+
+#[test]
+fn larger_regions_see_zero_cells_through_a_bricks_bit_rows() {
+    // A small ball in the corner of the first brick (cells 0–2); a region reading cells 4–10
+    // along each axis (7³ cells, too many to read one by one) covers the zero part of that brick
+    // and the empty bricks beyond, so its range is exactly zero.
+    let d = domain(DVec3::ZERO, DVec3::ONE, DVec3::ZERO, 1.0 / 32.0);
+    let ball = Ball {
+        centre: DVec3::splat(1.5 / 32.0),
+        radius: 1.2 / 32.0,
+    };
+    let field = FnField::new(1, move |p: DVec3, out: &mut [f64]| out[0] = ball.density(p));
+    let cache = Cache::from_field(d, 1, Arc::new(field), vec![0.0], "z".into()).unwrap();
+    let brick = Aabb::new(DVec3::ZERO, DVec3::splat(0.25));
+    assert!(cache.range(&brick)[0].1 > 0.5);
+    // Cell centres 4.5/32 … 9.5/32 give linear reads of cells 4–10.
+    let region = Aabb::new(DVec3::splat(4.5 / 32.0), DVec3::splat(9.75 / 32.0));
+    assert_eq!(cache.range_read(&region, Interp::Linear), vec![(0.0, 0.0)]);
+    for v in sample(
+        &cache,
+        Interp::Linear,
+        &points_in(region.min, region.max, 500),
+    ) {
+        assert_eq!(v, 0.0);
+    }
+    // A region that also reads cell (1, 1, 1), the ball's centre, is not zero.
+    let nearer = Aabb::new(DVec3::splat(1.5 / 32.0), DVec3::splat(9.75 / 32.0));
+    assert!(cache.range_read(&nearer, Interp::Linear)[0].1 > 0.5);
+}
