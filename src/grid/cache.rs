@@ -26,6 +26,7 @@
 mod build;
 mod fill;
 pub mod outside;
+mod range;
 mod read;
 pub use build::SparseBuilder;
 #[cfg(test)]
