@@ -346,11 +346,16 @@ mod tests {
             assert!(a <= centre - 0.5 && a > centre - 0.5 - 0.13, "{a}");
             assert!(b >= centre + 0.5 && b < centre + 0.5 + 0.13, "{b}");
         }
-        // A walk gives the same runs one at a time, then nothing; a spent walk gives nothing.
+        // The walk is lazy: having given the first run it stands on the empty brick just past
+        // it, not across the empty bricks before the second ball; then it gives the second run,
+        // then nothing. A spent walk gives nothing.
         let mut walk = grid.walk(&ray, t0, t1);
         assert_eq!(grid.next_run(&mut walk), Some(runs[0]));
+        assert_eq!(walk.t, runs[0].1);
+        assert!(!walk.done && walk.t < runs[1].0 - 4.0, "{walk:?}");
         assert_eq!(grid.next_run(&mut walk), Some(runs[1]));
         assert_eq!(grid.next_run(&mut walk), None);
+        assert!(walk.done);
         assert_eq!(grid.next_run(&mut walk), None);
         assert_eq!(grid.next_run(&mut BrickWalk::spent()), None);
         // A diagonal ray through nothing but empty bricks gets no runs at all.
