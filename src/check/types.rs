@@ -1,5 +1,6 @@
 //! The static types of felt and the rules that relate them: which values convert implicitly
-//! (`int → float`, plain → constant field), and what each operator of LANGUAGE.md §4 yields.
+//! (`int → float`, plain → constant field), and what each operator yields (docs/language.md,
+//! "Operators").
 //! The checker and the interpreter both use these rules, so a script that checks is a script
 //! whose every operation the interpreter knows how to perform.
 
@@ -289,7 +290,7 @@ fn field_comparison(op: BinaryOp) -> String {
     )
 }
 
-/// LANGUAGE.md §4: the shape of `l op r`.
+/// docs/language.md "Operators": the shape of `l op r`.
 pub fn arithmetic_shape(op: BinaryOp, l: Shape, r: Shape) -> Option<Shape> {
     use Shape::*;
     match op {

@@ -310,7 +310,8 @@ impl Field {
         Ok(())
     }
 
-    /// The products of LANGUAGE.md §4: scaling, dot product, matrix–vector and matrix products.
+    /// The products (docs/language.md, "Operators"): scaling, dot product, matrix–vector and
+    /// matrix products.
     pub fn mul(&self, other: &Field) -> Outcome<Field> {
         use FieldKind::*;
         let (a, b) = (&self.components, &other.components);

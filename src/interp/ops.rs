@@ -1,6 +1,6 @@
-//! The operators of LANGUAGE.md §4 on runtime values. Plain values are computed at once (ints
-//! with overflow and division-by-zero checks, floats by IEEE rules); as soon as a field is
-//! involved, both sides become fields and the result is a new graph node.
+//! The operators (docs/language.md, "Operators") on runtime values. Plain values are computed
+//! at once (ints with overflow and division-by-zero checks, floats by IEEE rules); as soon as a
+//! field is involved, both sides become fields and the result is a new graph node.
 
 use super::value::Value;
 use crate::failure::{Failure, Outcome};

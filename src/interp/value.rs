@@ -3,7 +3,7 @@
 //! array to a function copies it only if the function changes it. Fields are handles to
 //! immutable graph nodes, so copying one is free. A cache variable is the one thing with
 //! identity: `cachewrite` replaces the *state* it holds, while fields already read from it keep
-//! the state they were read from (LANGUAGE.md §6).
+//! the state they were read from (docs/language.md "Domains and caches").
 
 use crate::check::types::{Shape, Type};
 use crate::failure::Failure;
@@ -239,8 +239,8 @@ fn format_vector(v: DVec3) -> String {
 }
 
 impl fmt::Display for Value {
-    /// The form `print` writes (LANGUAGE.md §9a). Strings are written as they are at the top
-    /// level and quoted inside arrays, so `{"a", "b"}` stays readable.
+    /// The form `print` writes (docs/language.md, "Printing and formatting"). Strings are written
+    /// as they are at the top level and quoted inside arrays, so `{"a", "b"}` stays readable.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Value::Void => f.write_str("void"),

@@ -1,5 +1,5 @@
-//! Utilities of LANGUAGE.md §9a: printing, strings, array size, timing, conversions and the
-//! default noise seed.
+//! Utilities (docs/language.md, "Printing and formatting"): printing, strings, array size,
+//! timing, conversions and the default noise seed.
 
 use super::format;
 use crate::failure::{Failure, Outcome};

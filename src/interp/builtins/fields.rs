@@ -1,4 +1,4 @@
-//! Field builtins (LANGUAGE.md §5): constructors, switching, calculus, warping and inspection.
+//! Field builtins (docs/language.md, Fields): constructors, switching, calculus, warping and inspection.
 //! Each only builds graph nodes, except `probe` and `stats`, which are outputs: they compile
 //! the graph they need and evaluate it.
 

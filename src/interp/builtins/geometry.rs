@@ -1,4 +1,4 @@
-//! Geometry builtins (LANGUAGE.md §9): level sets to meshes and back, mesh files, pieces.
+//! Geometry builtins (docs/language.md, Geometry): level sets to meshes and back, mesh files, pieces.
 //!
 //! `ls2shape(ls)` without a domain meshes over the box where the level set can be positive,
 //! found by interval analysis of `mask(ls)`, with `DEFAULT_MESH_CELLS` cells along its longest

@@ -1,5 +1,5 @@
-//! Domain and cache builtins (LANGUAGE.md §6): `domain`, the cache constructors, `cachewrite`,
-//! `cacheread`, `cachefill`, `cachesave` and `cacheload`.
+//! Domain and cache builtins (docs/language.md, "Domains and caches"): `domain`, the cache
+//! constructors, `cachewrite`, `cacheread`, `cachefill`, `cachesave` and `cacheload`.
 //!
 //! `cachewrite` does not sample anything: it compiles the field and hands it to a cache that
 //! fills 8³ bricks the first time something reads them, so a cache that no output reaches

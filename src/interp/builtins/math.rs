@@ -1,4 +1,4 @@
-//! Math builtins (LANGUAGE.md §5): each has a plain form computed at once and a field form
+//! Math builtins (docs/language.md, Fields): each has a plain form computed at once and a field form
 //! that builds a node. The plain form comes first in every entry so that `sin(1.0)` stays a
 //! float; a field anywhere among the arguments selects the field form.
 

@@ -1,4 +1,4 @@
-//! Modeling builtins (LANGUAGE.md §5): noise fields and level sets.
+//! Modeling builtins (docs/language.md "Noise and level sets"): noise fields and level sets.
 //!
 //! Every noise here is built from the three kernels of `field::noise` (Perlin, simplex,
 //! Worley), which carry exact gradients and Hessians, so `grad` of any of these fields — fractal

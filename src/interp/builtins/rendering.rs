@@ -1,4 +1,4 @@
-//! Rendering builtins (LANGUAGE.md §8): cameras, lights, `render` and `transmissivity`.
+//! Rendering builtins (docs/language.md, Rendering): cameras, lights, `render` and `transmissivity`.
 //!
 //! `render` is an output: it compiles the density (and colour, emission, holdout) fields and
 //! hands them to the raymarcher, which asks for values only inside the box the density reports

@@ -1,4 +1,4 @@
-//! Simulation builtins (LANGUAGE.md §7): `fftdivfree`.
+//! Simulation builtins (docs/language.md "Simulation"): `fftdivfree`.
 //!
 //! Everything else a fluid script needs (advection, injection, buoyancy, obstacle boundaries,
 //! gridded, gridless and SELMA densities) is `advect`, `compose`, caches and the library
