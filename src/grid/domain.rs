@@ -29,11 +29,6 @@ pub struct Domain {
     pub cell: DVec3,
 }
 
-/// Sets the run's memory budget, in bytes (see `budget`).
-pub fn set_memory_limit(bytes: u64) {
-    crate::budget::set_limit(bytes);
-}
-
 /// The run's memory budget: no single grid may be larger.
 pub fn memory_limit() -> u64 {
     crate::budget::limit()

@@ -4,7 +4,7 @@
 
 use crate::diagnostic::{Diagnostic, Stage, grouped};
 use crate::failure::{Failure, Outcome};
-use crate::field::{self, Field, FieldKind, FieldValue};
+use crate::field::{self, Field, FieldValue};
 use crate::interp::Interpreter;
 use crate::interp::registry::{Args, Registry};
 use crate::interp::value::Value;
@@ -287,13 +287,4 @@ fn probe(_: &mut Interpreter, a: Args) -> Outcome<Value> {
         FieldValue::Vector(v) => Value::Vector(v),
         FieldValue::Matrix(m) => Value::Matrix(m),
     })
-}
-
-#[allow(dead_code)]
-fn kind_name(kind: FieldKind) -> &'static str {
-    match kind {
-        FieldKind::Scalar => "scalarfield",
-        FieldKind::Vector => "vectorfield",
-        FieldKind::Matrix => "matrixfield",
-    }
 }
