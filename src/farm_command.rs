@@ -3,6 +3,7 @@
 
 use crate::cli::FarmEngine;
 use crate::{frame_param, report};
+use felt::diagnostic::{Diagnostic, Stage};
 use felt::session::Session;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -92,6 +93,11 @@ pub fn farm(engine: FarmEngine, color: bool) -> ExitCode {
         }
     };
     let programs: Vec<&felt::syntax::ast::Program> = units.iter().map(|u| &u.program).collect();
+    let refused = |failure: felt::failure::Failure| {
+        let diagnostic =
+            Diagnostic::bare(Stage::Usage, failure.message).with_help_opt(failure.help);
+        report(&session.sources.borrow(), &[diagnostic], color, 2)
+    };
     let job = match felt::farm::Job::new(
         &felt_binary,
         &args.file,
@@ -102,26 +108,32 @@ pub fn farm(engine: FarmEngine, color: bool) -> ExitCode {
         args.images,
     ) {
         Ok(job) => job,
-        Err(failure) => {
-            print_failure(&failure);
-            return ExitCode::from(2);
-        }
+        Err(failure) => return refused(failure),
     };
     let stem = args
         .file
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| String::from("felt"));
+    // The job files are made whole before any is written, so a refused job writes nothing.
     let written = if openjd {
+        let template = match felt::farm::openjd::template(&job) {
+            Ok(template) => template,
+            Err(failure) => return refused(failure),
+        };
         let out = args
             .out
             .unwrap_or_else(|| PathBuf::from(format!("{stem}.openjd.yaml")));
-        write_job_file(&out, &felt::farm::openjd::template(&job), false).map(|()| vec![out])
+        write_job_file(&out, &template, false).map(|()| vec![out])
     } else {
+        let scripts = match felt::farm::slurm::scripts(&job) {
+            Ok(scripts) => scripts,
+            Err(failure) => return refused(failure),
+        };
         let out = args
             .out
             .unwrap_or_else(|| PathBuf::from(format!("{stem}.slurm.sh")));
-        write_slurm(&out, &job)
+        write_slurm(&out, &scripts)
     };
     match written {
         Ok(files) => {
@@ -139,14 +151,22 @@ pub fn farm(engine: FarmEngine, color: bool) -> ExitCode {
 
 /// The Slurm scripts: OUT (the render array), and with bands OUT's `.merge.sh` and
 /// `.submit.sh` siblings; the submit script is written in every case.
-fn write_slurm(out: &std::path::Path, job: &felt::farm::Job) -> Result<Vec<PathBuf>, String> {
-    let scripts = felt::farm::slurm::scripts(job);
+fn write_slurm(
+    out: &std::path::Path,
+    scripts: &felt::farm::slurm::Scripts,
+) -> Result<Vec<PathBuf>, String> {
     let name = out.to_string_lossy();
     let stem = name.strip_suffix(".sh").unwrap_or(&name);
+    // The submit script names the others exactly, so their paths must be text.
     let absolute = |p: &std::path::Path| {
         std::path::absolute(p)
-            .map(|p| p.display().to_string())
-            .map_err(|e| format!("cannot resolve '{}': {e}", p.display()))
+            .map_err(|e| format!("cannot resolve '{}': {e}", p.display()))?
+            .into_os_string()
+            .into_string()
+            .map_err(|p| {
+                let p = p.to_string_lossy();
+                format!("'{p}' is not valid UTF-8, so the submit script cannot name it")
+            })
     };
     let mut files = vec![out.to_path_buf()];
     write_job_file(out, &scripts.render, true)?;

@@ -586,7 +586,7 @@ fn the_openjd_template_names_every_task() {
     );
     assert!(
         yaml.contains(
-            "merge --frames {{Task.Param.Frame}} --tiles 2 'turn.####.exr' 'turn.####.png'"
+            r#""merge", "--frames", "{{Task.Param.Frame}}", "--tiles", "2", "--", "turn.####.exr", "turn.####.png"]"#
         ),
         "{yaml}"
     );

@@ -7,10 +7,13 @@
 //! key decision: a farm node shares the file system but not the working directory, so every
 //! command names the felt binary and the script by absolute path and first changes into the
 //! script's folder; relative paths in the script (outputs, caches, imports) then resolve there,
-//! as they do for `felt run` started in that folder.
+//! as they do for `felt run` started in that folder. A task's command is a list of `Word`s,
+//! each format writing a word in its own syntax: paths and values are never pasted into shell
+//! text, only through `shell::word` (Slurm) or as whole arguments (Open Job Description).
 
 pub mod merge;
 pub mod openjd;
+pub mod shell;
 pub mod slurm;
 
 use crate::failure::{Failure, Outcome};
@@ -22,17 +25,28 @@ use std::path::{Path, PathBuf};
 #[derive(Clone, Debug)]
 pub struct Job {
     /// The felt binary, absolute.
-    pub felt: PathBuf,
+    pub felt: String,
     /// The script, absolute.
-    pub script: PathBuf,
+    pub script: String,
     /// Where every task runs: the script's folder.
-    pub folder: PathBuf,
+    pub folder: String,
     pub frames: FrameRange,
     /// Bands per frame, when frames are split.
     pub tiles: Option<usize>,
     pub set: Vec<(String, String)>,
     /// The images `felt merge` assembles, as the script names them (relative to `folder`).
     pub images: Vec<String>,
+}
+
+/// One argument of a task's command.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Word {
+    /// Text known when the job is written: a path, an option, a `--set` value.
+    Text(String),
+    /// The task's frame, known only when the engine starts the task.
+    Frame,
+    /// The task's band `I/count`, `I` known only when the engine starts the task.
+    Band { count: usize },
 }
 
 impl Job {
@@ -75,9 +89,9 @@ impl Job {
             images.dedup();
         }
         Ok(Job {
-            felt: absolute(felt, "the felt binary")?,
-            script,
-            folder,
+            felt: text(absolute(felt, "the felt binary")?, "the felt binary's path")?,
+            script: text(script, "the script's path")?,
+            folder: text(folder, "the script's folder")?,
             frames,
             tiles,
             set,
@@ -85,60 +99,84 @@ impl Job {
         })
     }
 
-    /// The arguments of one render task's `felt run`, `frame` and `tile` being how the engine
-    /// spells the task's frame and band index.
-    pub fn run_args(&self, frame: &str, tile: Option<&str>) -> Vec<String> {
-        let mut args = vec![
-            self.felt.display().to_string(),
-            "run".to_string(),
-            self.script.display().to_string(),
-            "--frames".to_string(),
-            frame.to_string(),
-        ];
-        if let (Some(tile), Some(count)) = (tile, self.tiles) {
-            args.extend(["--tile".to_string(), format!("{tile}/{count}")]);
+    /// The arguments of one render task's `felt run`.
+    pub fn run_args(&self) -> Vec<Word> {
+        let mut args: Vec<Word> = [self.felt.as_str(), "run", self.script.as_str(), "--frames"]
+            .into_iter()
+            .map(|t| Word::Text(t.to_string()))
+            .collect();
+        args.push(Word::Frame);
+        if let Some(count) = self.tiles {
+            args.extend([Word::Text("--tile".to_string()), Word::Band { count }]);
         }
         for (name, value) in &self.set {
-            args.extend(["--set".to_string(), format!("{name}={value}")]);
+            args.push(Word::Text("--set".to_string()));
+            args.push(Word::Text(format!("{name}={value}")));
         }
         args
     }
 
-    /// The arguments of one frame's `felt merge`.
-    pub fn merge_args(&self, frame: &str) -> Vec<String> {
-        let mut args = vec![
-            self.felt.display().to_string(),
-            "merge".to_string(),
-            "--frames".to_string(),
-            frame.to_string(),
-            "--tiles".to_string(),
-            self.tiles.unwrap_or(1).to_string(),
-        ];
-        args.extend(self.images.iter().cloned());
+    /// The arguments of one frame's `felt merge`. `--` ends the options, so an image whose
+    /// name starts with `-` is still an image.
+    pub fn merge_args(&self) -> Vec<Word> {
+        let count = self.tiles.unwrap_or(1).to_string();
+        let mut args: Vec<Word> = [self.felt.as_str(), "merge", "--frames"]
+            .into_iter()
+            .map(|t| Word::Text(t.to_string()))
+            .collect();
+        args.push(Word::Frame);
+        args.extend(["--tiles", &count, "--"].map(|t| Word::Text(t.to_string())));
+        args.extend(self.images.iter().cloned().map(Word::Text));
         args
+    }
+
+    /// Every path and value the job files carry, with what it is, for the formats to check
+    /// against what they can hold.
+    pub fn texts(&self) -> Vec<(String, &str)> {
+        let mut texts = vec![
+            ("the felt binary's path".to_string(), self.felt.as_str()),
+            ("the script's folder".to_string(), self.folder.as_str()),
+            ("the script's path".to_string(), self.script.as_str()),
+        ];
+        for (name, value) in &self.set {
+            texts.push((format!("the value of --set {name}"), value.as_str()));
+        }
+        for image in &self.images {
+            texts.push(("the --image path".to_string(), image.as_str()));
+        }
+        texts
+    }
+
+    /// The frame range as written, without the blanks the range syntax ignores, so it is one
+    /// line wherever it goes.
+    pub fn frames_text(&self) -> String {
+        self.frames.text.split_whitespace().collect()
     }
 
     /// A name for the job: the script's file name.
     pub fn name(&self) -> String {
-        self.script
+        Path::new(&self.script)
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_else(|| String::from("felt"))
     }
 }
 
-/// `text` quoted for a POSIX shell, where it needs quoting. Engine placeholders (`{{...}}`,
-/// `$VAR`) must be passed unquoted by the caller.
-pub fn shell_quote(text: &str) -> String {
-    let plain = !text.is_empty()
-        && text
-            .chars()
-            .all(|c| c.is_ascii_alphanumeric() || "-_./=:,+@%".contains(c));
-    if plain {
-        text.to_string()
-    } else {
-        format!("'{}'", text.replace('\'', r"'\''"))
-    }
+/// `path` as text; a job file is text, so a path that is not UTF-8 cannot be written into one
+/// exactly (and is refused rather than written as something else).
+fn text(path: PathBuf, what: &str) -> Outcome<String> {
+    path.into_os_string().into_string().map_err(|raw| {
+        Failure::new(format!(
+            "{what} '{}' is not valid UTF-8, so a job file cannot name it exactly",
+            raw.to_string_lossy()
+        ))
+        .with_help("rename the folder or file to a UTF-8 name")
+    })
+}
+
+/// The refusal of `value` (which is `what`) by a format, for `reason`.
+pub fn refusal(what: &str, value: &str, reason: &str) -> Failure {
+    Failure::new(format!("{what} {value:?} {reason}"))
 }
 
 /// The image path of every `render` call in `program`: `Some` for a string literal, `None`
@@ -251,14 +289,6 @@ fn expr_targets(expr: &Expr, found: &mut Vec<Option<String>>) {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn shell_quoting_survives_spaces_and_quotes() {
-        assert_eq!(shell_quote("/opt/felt/bin/felt"), "/opt/felt/bin/felt");
-        assert_eq!(shell_quote("my scene.felt"), "'my scene.felt'");
-        assert_eq!(shell_quote("it's"), r"'it'\''s'");
-        assert_eq!(shell_quote(""), "''");
-    }
 
     #[test]
     fn render_targets_are_found_wherever_render_is_called() {

@@ -4,70 +4,133 @@
 //! The one key decision: the frame range is handed to the engine as it was written, as the
 //! `Frame` task parameter's range expression (felt's range syntax is OpenJD's), so the engine,
 //! not felt, expands it into tasks; with bands a `Tile` parameter is crossed with it and a
-//! `merge` step depending on the render step has one task per frame. Each task runs through
-//! `/bin/sh -c 'cd FOLDER && exec felt ...'` so it starts in the script's folder. The template
-//! is YAML whose every string is double-quoted with JSON escapes (so it is JSON-safe text too).
+//! `merge` step depending on the render step has one task per frame. The template is YAML whose
+//! every string is double-quoted with JSON escapes (so it is JSON-safe text too).
+//!
+//! Quoting: each task runs `/bin/sh -c 'cd "$1" && shift && exec "$@"' felt-task FOLDER FELT
+//! ARGS...`, so the folder, the paths and the values reach the task as whole arguments and no
+//! shell ever parses them. OpenJD itself expands `{{...}}` in every argument and in the job name
+//! and has no escape for a literal brace, so a `{` or `}` of a path or value is written as
+//! `{{Param.FeltLeftBrace}}` or `{{Param.FeltRightBrace}}`, two hidden job parameters whose only
+//! allowed values are the braces themselves (expansion is one pass, so the brace they give is
+//! never read again): every name works. An argument cannot hold control characters other than
+//! the newline, so a path or value with one (a tab, a carriage return) is refused; the job name
+//! is only a label, so its control characters become `?`.
 
-use super::{Job, shell_quote};
+use super::{Job, Word, refusal};
+use crate::failure::Outcome;
 
-/// The template for `job`.
-pub fn template(job: &Job) -> String {
+/// The shell line of every task: into the folder, then the command, both given as arguments.
+const TASK_SHELL: &str = "cd \"$1\" && shift && exec \"$@\"";
+
+/// The job parameters that stand for a literal brace.
+const LEFT_BRACE: &str = "{{Param.FeltLeftBrace}}";
+const RIGHT_BRACE: &str = "{{Param.FeltRightBrace}}";
+
+/// OpenJD's longest job name, in characters after expansion.
+const MAX_NAME: usize = 128;
+
+/// The template for `job`, or why OpenJD cannot carry it.
+pub fn template(job: &Job) -> Outcome<String> {
+    for (what, text) in job.texts() {
+        if let Some(c) = text.chars().find(|&c| c.is_control() && c != '\n') {
+            return Err(refusal(
+                &what,
+                text,
+                &format!(
+                    "has the control character {c:?}, which an Open Job Description \
+                     argument cannot hold"
+                ),
+            )
+            .with_help("rename it without tabs, carriage returns or other control characters"));
+        }
+    }
+    let mut text = Literal::default();
+    let name: String = format!("felt {}", job.name())
+        .chars()
+        .map(|c| if c.is_control() { '?' } else { c })
+        .take(MAX_NAME)
+        .collect();
+    let name = text.format(&name);
+    let mut steps = String::new();
+    let render = command(&mut text, job, &job.run_args());
+    step(&mut steps, "render", None, job, job.tiles, &render);
+    if job.tiles.is_some() {
+        let merge = command(&mut text, job, &job.merge_args());
+        step(&mut steps, "merge", Some("render"), job, None, &merge);
+    }
     let mut yaml = String::new();
     yaml.push_str("specificationVersion: \"jobtemplate-2023-09\"\n");
-    yaml.push_str(&format!(
-        "name: {}\n",
-        quoted(&format!("felt {}", job.name()))
-    ));
-    yaml.push_str("steps:\n");
-    let frame = "{{Task.Param.Frame}}";
-    let tile = job.tiles.map(|_| "{{Task.Param.Tile}}");
-    step(
-        &mut yaml,
-        "render",
-        None,
-        &job.frames.text,
-        job.tiles,
-        &command_line(job, &job.run_args(frame, tile)),
-    );
-    if job.tiles.is_some() {
-        step(
-            &mut yaml,
-            "merge",
-            Some("render"),
-            &job.frames.text,
-            None,
-            &command_line(job, &job.merge_args(frame)),
-        );
+    yaml.push_str(&format!("name: {}\n", quoted(&name)));
+    if text.braces {
+        yaml.push_str("parameterDefinitions:\n");
+        for (param, brace, side) in [
+            ("FeltLeftBrace", "{", "left"),
+            ("FeltRightBrace", "}", "right"),
+        ] {
+            yaml.push_str(&format!(
+                "  - name: {}\n    type: \"STRING\"\n    description: {}\n    default: {}\n    \
+                 allowedValues: [{}]\n    userInterface:\n      control: \"HIDDEN\"\n",
+                quoted(param),
+                quoted(&format!(
+                    "Stands for a {side} brace in a path or value; leave as is."
+                )),
+                quoted(brace),
+                quoted(brace),
+            ));
+        }
     }
-    yaml
+    yaml.push_str("steps:\n");
+    yaml.push_str(&steps);
+    Ok(yaml)
 }
 
-/// `cd FOLDER && exec ARGS...`, with the engine's `{{...}}` placeholders left for it to fill.
-fn command_line(job: &Job, args: &[String]) -> String {
-    let words: Vec<String> = args
-        .iter()
-        .map(|a| {
-            if a.contains("{{") {
-                a.clone()
-            } else {
-                shell_quote(a)
+/// Text written into format strings, remembering whether a brace had to be given by the
+/// brace parameters.
+#[derive(Default)]
+struct Literal {
+    braces: bool,
+}
+
+impl Literal {
+    /// `text` as a format string that OpenJD expands back to `text`.
+    fn format(&mut self, text: &str) -> String {
+        let mut out = String::with_capacity(text.len());
+        for c in text.chars() {
+            match c {
+                '{' => out.push_str(LEFT_BRACE),
+                '}' => out.push_str(RIGHT_BRACE),
+                c => out.push(c),
             }
-        })
-        .collect();
-    format!(
-        "cd {} && exec {}",
-        shell_quote(&job.folder.display().to_string()),
-        words.join(" ")
-    )
+        }
+        self.braces |= out.len() != text.len();
+        out
+    }
+}
+
+/// The arguments of `/bin/sh` for a task running `args` in the script's folder.
+fn command(text: &mut Literal, job: &Job, args: &[Word]) -> Vec<String> {
+    let mut argv = vec![
+        "-c".to_string(),
+        TASK_SHELL.to_string(),
+        "felt-task".to_string(),
+        text.format(&job.folder),
+    ];
+    argv.extend(args.iter().map(|word| match word {
+        Word::Text(t) => text.format(t),
+        Word::Frame => "{{Task.Param.Frame}}".to_string(),
+        Word::Band { count } => format!("{{{{Task.Param.Tile}}}}/{count}"),
+    }));
+    argv
 }
 
 fn step(
     yaml: &mut String,
     name: &str,
     after: Option<&str>,
-    frames: &str,
+    job: &Job,
     tiles: Option<usize>,
-    command: &str,
+    args: &[String],
 ) {
     yaml.push_str(&format!("  - name: {}\n", quoted(name)));
     if let Some(after) = after {
@@ -75,14 +138,15 @@ fn step(
         yaml.push_str(&format!("      - dependsOn: {}\n", quoted(after)));
     }
     yaml.push_str("    parameterSpace:\n      taskParameterDefinitions:\n");
-    parameter(yaml, "Frame", frames);
+    parameter(yaml, "Frame", &job.frames_text());
     if let Some(count) = tiles {
         parameter(yaml, "Tile", &format!("0-{}", count - 1));
         yaml.push_str("      combination: \"Frame * Tile\"\n");
     }
     yaml.push_str("    script:\n      actions:\n        onRun:\n");
     yaml.push_str("          command: \"/bin/sh\"\n");
-    yaml.push_str(&format!("          args: [\"-c\", {}]\n", quoted(command)));
+    let args: Vec<String> = args.iter().map(|a| quoted(a)).collect();
+    yaml.push_str(&format!("          args: [{}]\n", args.join(", ")));
 }
 
 fn parameter(yaml: &mut String, name: &str, range: &str) {
@@ -113,13 +177,12 @@ fn quoted(text: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::path::PathBuf;
 
     fn job(tiles: Option<usize>) -> Job {
         Job {
-            felt: PathBuf::from("/opt/felt/bin/felt"),
-            script: PathBuf::from("/shows/a b/scene.felt"),
-            folder: PathBuf::from("/shows/a b"),
+            felt: "/opt/felt/bin/felt".into(),
+            script: "/shows/a b/scene.felt".into(),
+            folder: "/shows/a b".into(),
             frames: "1-240:2".parse().unwrap(),
             tiles,
             set: vec![("res".into(), "64".into())],
@@ -129,12 +192,13 @@ mod tests {
 
     #[test]
     fn one_task_per_frame_in_the_scripts_folder() {
-        let yaml = template(&job(None));
+        let yaml = template(&job(None)).unwrap();
         assert!(yaml.contains("range: \"1-240:2\""), "{yaml}");
         assert!(!yaml.contains("Tile") && !yaml.contains("merge"), "{yaml}");
+        assert!(!yaml.contains("parameterDefinitions"), "{yaml}");
         assert!(
             yaml.contains(
-                r#"args: ["-c", "cd '/shows/a b' && exec /opt/felt/bin/felt run '/shows/a b/scene.felt' --frames {{Task.Param.Frame}} --set res=64"]"#
+                r#"args: ["-c", "cd \"$1\" && shift && exec \"$@\"", "felt-task", "/shows/a b", "/opt/felt/bin/felt", "run", "/shows/a b/scene.felt", "--frames", "{{Task.Param.Frame}}", "--set", "res=64"]"#
             ),
             "{yaml}"
         );
@@ -142,13 +206,37 @@ mod tests {
 
     #[test]
     fn bands_cross_frames_with_tiles_and_merge_after() {
-        let yaml = template(&job(Some(4)));
+        let yaml = template(&job(Some(4))).unwrap();
         assert!(yaml.contains("range: \"0-3\"") && yaml.contains("\"Frame * Tile\""));
-        assert!(yaml.contains("--tile {{Task.Param.Tile}}/4"), "{yaml}");
-        assert!(yaml.contains("dependsOn: \"render\""), "{yaml}");
         assert!(
-            yaml.contains("merge --frames {{Task.Param.Frame}} --tiles 4 'out/cloud.####.exr'"),
+            yaml.contains("\"--tile\", \"{{Task.Param.Tile}}/4\""),
             "{yaml}"
         );
+        assert!(yaml.contains("dependsOn: \"render\""), "{yaml}");
+        assert!(
+            yaml.contains(
+                r#""merge", "--frames", "{{Task.Param.Frame}}", "--tiles", "4", "--", "out/cloud.####.exr"]"#
+            ),
+            "{yaml}"
+        );
+    }
+
+    #[test]
+    fn braces_come_from_the_brace_parameters_and_control_characters_are_refused() {
+        let mut braced = job(None);
+        braced.set = vec![("title".into(), "{{Task.Param.Frame}}}".into())];
+        let yaml = template(&braced).unwrap();
+        assert!(
+            yaml.contains(
+                "\"title={{Param.FeltLeftBrace}}{{Param.FeltLeftBrace}}Task.Param.Frame\
+                 {{Param.FeltRightBrace}}{{Param.FeltRightBrace}}{{Param.FeltRightBrace}}\""
+            ),
+            "{yaml}"
+        );
+        assert!(yaml.contains("allowedValues: [\"{\"]"), "{yaml}");
+        let mut tabbed = job(None);
+        tabbed.images = vec!["a\tb.exr".into()];
+        let refused = template(&tabbed).unwrap_err();
+        assert!(refused.message.contains("--image"), "{}", refused.message);
     }
 }
