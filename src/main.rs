@@ -4,7 +4,8 @@
 //! may build field graphs thousands of nodes deep (long `advect` chains) and the checker,
 //! interpreter and graph passes are allowed to recurse over the syntax tree. Exit codes: 0 on
 //! success, 1 on a script error, 2 on bad usage (arguments, unreadable files, unknown `--set`),
-//! 70 on an internal error (a panic: a bug in felt, reported in one line).
+//! 70 on an internal error (a panic: a bug in felt, reported in one line), 130 when
+//! interrupted.
 
 mod cli;
 mod farm_command;
@@ -92,7 +93,7 @@ fn run(cli: Cli) -> ExitCode {
                 if range.frames.len() > 1 {
                     let args: Vec<std::ffi::OsString> = std::env::args_os().skip(1).collect();
                     let _ = ctrlc::set_handler(|| {
-                        felt::sequence::interrupt_child();
+                        felt::interrupt::stop_children();
                         eprintln!("felt: interrupted");
                         std::process::exit(130);
                     });
@@ -154,16 +155,25 @@ fn run(cli: Cli) -> ExitCode {
             out,
             threads,
             memory_limit,
-        } => ExitCode::from(felt::study::run(&felt::study::StudyArgs {
-            script: file,
-            sweeps,
-            reference,
-            set,
-            repeat,
-            out,
-            threads,
-            memory_limit,
-        })),
+        } => {
+            // Ctrl-C or SIGTERM: the running setting's process group is stopped first (it
+            // removes its temporaries), then the study exits as an interrupted run does.
+            let _ = ctrlc::set_handler(|| {
+                felt::interrupt::stop_children();
+                eprintln!("felt: interrupted");
+                std::process::exit(130);
+            });
+            ExitCode::from(felt::study::run(&felt::study::StudyArgs {
+                script: file,
+                sweeps,
+                reference,
+                set,
+                repeat,
+                out,
+                threads,
+                memory_limit,
+            }))
+        }
         Command::Check { file, set } => {
             let mut session = match Session::new(Box::new(std::io::stdout())) {
                 Ok(s) => s,
