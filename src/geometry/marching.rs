@@ -454,9 +454,8 @@ fn merge(slabs: Vec<SlabMesh>) -> Outcome<Mesh> {
                 let at = next.bottom.binary_search_by_key(&key, |&(k, _)| k).ok()?;
                 Some(global[s + 1][next.bottom[at].1 as usize])
             });
-            global[s][local as usize] = resolved.ok_or_else(|| {
-                Failure::new("internal error: a crossing between two slabs has no owner")
-            })?;
+            global[s][local as usize] = resolved
+                .ok_or_else(|| Failure::internal("a crossing between two slabs has no owner"))?;
         }
     }
     for (slab, map) in slabs.iter().zip(&global) {
