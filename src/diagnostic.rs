@@ -28,6 +28,8 @@ pub enum Stage {
     Type,
     Runtime,
     Usage,
+    /// A bug in felt, not in the script (`Failure::internal`): the command exits 70.
+    Internal,
 }
 
 impl Stage {
@@ -38,6 +40,7 @@ impl Stage {
             Stage::Type => "felt::type",
             Stage::Runtime => "felt::runtime",
             Stage::Usage => "felt::usage",
+            Stage::Internal => "felt::internal",
         }
     }
 }

@@ -2,6 +2,11 @@
 //! They know nothing of source text, so they report a `Failure`: a message in the script
 //! author's terms and an optional hint. The interpreter attaches the span of the call that
 //! failed and turns it into a diagnostic with the source line and the FELT call stack.
+//!
+//! A failure is the script's (a bad value, a missing file, a size over budget) unless it is
+//! made with `Failure::internal`: an invariant of felt's own code that did not hold, which no
+//! script should be able to cause. Those are a distinct kind, so the `felt` command exits 70
+//! with a line asking for a report instead of blaming the script with exit 1.
 
 use std::fmt;
 
@@ -9,6 +14,8 @@ use std::fmt;
 pub struct Failure {
     pub message: String,
     pub help: Option<String>,
+    /// A bug in felt rather than a problem with the script (see the module doc).
+    pub internal: bool,
 }
 
 impl Failure {
@@ -16,6 +23,20 @@ impl Failure {
         Failure {
             message: message.into(),
             help: None,
+            internal: false,
+        }
+    }
+
+    /// An invariant of felt's own code that did not hold: `what` says which, after
+    /// "internal error: ".
+    pub fn internal(what: impl fmt::Display) -> Failure {
+        Failure {
+            message: format!("internal error: {what}"),
+            help: Some(String::from(
+                "this is a bug in felt, not in the script: please report it, with the script \
+                 that caused it",
+            )),
+            internal: true,
         }
     }
 
@@ -48,4 +69,58 @@ macro_rules! fail {
     ($($arg:tt)*) => {
         return Err($crate::failure::Failure::new(format!($($arg)*)))
     };
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn only_internal_failures_are_internal() {
+        let bug = Failure::internal("a crossing has no owner");
+        assert!(bug.internal);
+        assert_eq!(bug.message, "internal error: a crossing has no owner");
+        assert!(!Failure::new("internal error: spelled by hand").internal);
+        assert!(!Failure::from(std::io::Error::other("disk full")).internal);
+    }
+
+    /// Every "internal error" felt reports is made by `Failure::internal`, so it exits 70: no
+    /// source file spells the words into an ordinary failure's message by hand.
+    #[test]
+    fn internal_errors_are_made_only_by_failure_internal() {
+        fn sources(folder: &std::path::Path, out: &mut Vec<std::path::PathBuf>) {
+            for entry in std::fs::read_dir(folder).unwrap() {
+                let path = entry.unwrap().path();
+                if path.is_dir() {
+                    sources(&path, out);
+                } else if path.extension().is_some_and(|e| e == "rs") {
+                    out.push(path);
+                }
+            }
+        }
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+        let mut files = Vec::new();
+        sources(&root, &mut files);
+        assert!(files.len() > 50, "found only {} source files", files.len());
+        // This file builds the words for `Failure::internal`; main.rs prints them for a panic.
+        let own = [root.join("failure.rs"), root.join("main.rs")];
+        let words = ["\"internal", " error"].concat();
+        let spelled: Vec<String> = files
+            .iter()
+            .filter(|f| !own.contains(f))
+            .flat_map(|f| {
+                let text = std::fs::read_to_string(f).unwrap();
+                text.lines()
+                    .enumerate()
+                    .filter(|(_, line)| line.to_lowercase().contains(&words))
+                    .map(|(n, line)| format!("{}:{}: {}", f.display(), n + 1, line.trim()))
+                    .collect::<Vec<_>>()
+            })
+            .collect();
+        assert!(
+            spelled.is_empty(),
+            "use Failure::internal:\n{}",
+            spelled.join("\n")
+        );
+    }
 }

@@ -4,7 +4,8 @@
 //! may build field graphs thousands of nodes deep (long `advect` chains) and the checker,
 //! interpreter and graph passes are allowed to recurse over the syntax tree. Exit codes: 0 on
 //! success, 1 on a script error, 2 on bad usage (arguments, unreadable files, unknown `--set`),
-//! 70 on an internal error (a panic: a bug in felt, reported in one line).
+//! 70 on an internal error (a bug in felt: a panic, reported in one line, or a
+//! `Failure::internal`, whose diagnostic's help line asks for a report), 130 when interrupted.
 
 mod cli;
 mod farm_command;
@@ -92,7 +93,7 @@ fn run(cli: Cli) -> ExitCode {
                 if range.frames.len() > 1 {
                     let args: Vec<std::ffi::OsString> = std::env::args_os().skip(1).collect();
                     let _ = ctrlc::set_handler(|| {
-                        felt::sequence::interrupt_child();
+                        felt::interrupt::stop_children();
                         eprintln!("felt: interrupted");
                         std::process::exit(130);
                     });
@@ -128,13 +129,12 @@ fn run(cli: Cli) -> ExitCode {
             session.interp.overrides = set.into_iter().collect();
             let code = match session.run_file(&file) {
                 Ok(warnings) => report(&session.sources.borrow(), &warnings, color, 0),
-                Err(diags) => {
-                    let usage = diags
-                        .iter()
-                        .any(|d| d.stage == diagnostic::Stage::Usage && d.is_error());
-                    let code = if usage { 2 } else { 1 };
-                    report(&session.sources.borrow(), &diags, color, code)
-                }
+                Err(diags) => report(
+                    &session.sources.borrow(),
+                    &diags,
+                    color,
+                    failed_status(&diags),
+                ),
             };
             let late = session.finish();
             if !late.is_empty() {
@@ -154,16 +154,25 @@ fn run(cli: Cli) -> ExitCode {
             out,
             threads,
             memory_limit,
-        } => ExitCode::from(felt::study::run(&felt::study::StudyArgs {
-            script: file,
-            sweeps,
-            reference,
-            set,
-            repeat,
-            out,
-            threads,
-            memory_limit,
-        })),
+        } => {
+            // Ctrl-C or SIGTERM: the running setting's process group is stopped first (it
+            // removes its temporaries), then the study exits as an interrupted run does.
+            let _ = ctrlc::set_handler(|| {
+                felt::interrupt::stop_children();
+                eprintln!("felt: interrupted");
+                std::process::exit(130);
+            });
+            ExitCode::from(felt::study::run(&felt::study::StudyArgs {
+                script: file,
+                sweeps,
+                reference,
+                set,
+                repeat,
+                out,
+                threads,
+                memory_limit,
+            }))
+        }
         Command::Check { file, set } => {
             let mut session = match Session::new(Box::new(std::io::stdout())) {
                 Ok(s) => s,
@@ -221,6 +230,20 @@ fn run(cli: Cli) -> ExitCode {
     }
 }
 
+/// The exit status of a run that stopped on `diags`: 70 when felt itself failed (an internal
+/// error: the diagnostic's help asks for a report), 2 for bad usage, 1 for the script's errors.
+fn failed_status(diags: &[Diagnostic]) -> u8 {
+    let stopped_by =
+        |stage: diagnostic::Stage| diags.iter().any(|d| d.stage == stage && d.is_error());
+    if stopped_by(diagnostic::Stage::Internal) {
+        INTERNAL_ERROR
+    } else if stopped_by(diagnostic::Stage::Usage) {
+        2
+    } else {
+        1
+    }
+}
+
 pub(crate) fn report(
     sources: &felt::syntax::span::SourceMap,
     diags: &[Diagnostic],
@@ -271,5 +294,29 @@ pub(crate) fn frame_param(
             );
             Err(ExitCode::from(2))
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use felt::diagnostic::Stage;
+
+    fn error(stage: Stage) -> Diagnostic {
+        Diagnostic::bare(stage, String::from("failed"))
+    }
+
+    #[test]
+    fn an_internal_failure_exits_70_whatever_else_failed() {
+        assert_eq!(failed_status(&[error(Stage::Runtime)]), 1);
+        assert_eq!(
+            failed_status(&[error(Stage::Usage), error(Stage::Runtime)]),
+            2
+        );
+        assert_eq!(failed_status(&[error(Stage::Internal)]), 70);
+        assert_eq!(
+            failed_status(&[error(Stage::Usage), error(Stage::Internal)]),
+            70
+        );
     }
 }

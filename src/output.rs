@@ -17,6 +17,13 @@
 //! settings, like the frame below, belong to the engine (`crate::engine`) of the run, so two
 //! sessions in one process can write to different folders.
 //!
+//! A file that is read, changed and written back (a VDB a run appends a grid to) is guarded
+//! by `lock_for_update`: an advisory lock (`flock`) on a sibling `NAME.lock` file, held from
+//! the read to the rename, so runs that append to one file at once take turns and none loses
+//! another's grid. The lock file is left in place: removing it would let a run that opened it
+//! just before the removal lock a file nobody else can see any more, and two runs would
+//! update at once again. It is empty and harmless to delete when no run is writing.
+//!
 //! Frame patterns (`####`, `%04d`, `$F4`; see `frames`) in any path felt opens are filled with
 //! the `frame` param's value. One frame of `felt run --frames` must name its frame in every
 //! output path, or each frame would overwrite the last one's file.
@@ -195,6 +202,40 @@ fn through_links(path: &Path) -> Result<PathBuf, String> {
         }
     }
     Err(String::from("too many levels of symbolic links"))
+}
+
+/// An update of a file in progress: while this lives, no other felt process updates the same
+/// file (see the module doc). Dropping it closes the lock file, which releases the lock.
+#[derive(Debug)]
+pub struct UpdateLock {
+    _file: File,
+}
+
+/// Waits for, then takes, the right to read, change and replace the file at `path` (resolved
+/// already, see `paths`): an exclusive `flock` on `NAME.lock` beside the file a write of
+/// `path` lands on (through its symbolic links, so two links to one file share one lock).
+/// The error is a sentence fragment, as for `write_atomically`.
+pub fn lock_for_update(path: &Path) -> Result<UpdateLock, String> {
+    check_writable(path)?;
+    if let Some(parent) = path.parent()
+        && !parent.as_os_str().is_empty()
+    {
+        std::fs::create_dir_all(parent)
+            .map_err(|e| format!("cannot create the folder '{}': {e}", parent.display()))?;
+    }
+    let landing = through_links(path)?;
+    let mut name = landing.into_os_string();
+    name.push(".lock");
+    let lock_path = PathBuf::from(name);
+    let file = std::fs::OpenOptions::new()
+        .create(true)
+        .truncate(false)
+        .write(true)
+        .open(&lock_path)
+        .map_err(|e| format!("cannot open the lock file '{}': {e}", lock_path.display()))?;
+    file.lock()
+        .map_err(|e| format!("cannot lock '{}': {e}", lock_path.display()))?;
+    Ok(UpdateLock { _file: file })
 }
 
 /// Writes a file at `path` (resolved already, see `paths`) with `write`, atomically, creating

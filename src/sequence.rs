@@ -11,22 +11,7 @@
 use crate::frames::FrameRange;
 use std::ffi::{OsStr, OsString};
 use std::process::Command;
-use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::Instant;
-
-/// The child running now, so an interrupt of this process can pass on to it.
-static CHILD: AtomicU32 = AtomicU32::new(0);
-
-/// Asks the frame running now to stop (from a Ctrl-C or SIGTERM handler).
-pub fn interrupt_child() {
-    let pid = CHILD.load(Ordering::Relaxed);
-    if pid != 0 {
-        // SAFETY: kill has no memory effects; a stale pid at worst signals nothing of ours.
-        unsafe {
-            libc::kill(pid as libc::pid_t, libc::SIGTERM);
-        }
-    }
-}
 
 /// `args` (this process's arguments, without the program) with the `--frames` value replaced
 /// by `frame`.
@@ -65,15 +50,15 @@ pub fn run(range: &FrameRange, args: &[OsString]) -> u8 {
     for (k, &frame) in range.frames.iter().enumerate() {
         eprintln!("felt: frame {frame} ({} of {total})", k + 1);
         let began = Instant::now();
-        let status = Command::new(&felt)
-            .args(frame_args(args, frame))
-            .spawn()
-            .and_then(|mut child| {
-                CHILD.store(child.id(), Ordering::Relaxed);
-                let status = child.wait();
-                CHILD.store(0, Ordering::Relaxed);
-                status
-            });
+        // In a group of its own, so an interrupt stops the frame and all it started
+        // (`crate::interrupt::stop_children`) before this process exits.
+        let status =
+            crate::interrupt::spawn_child(Command::new(&felt).args(frame_args(args, frame)))
+                .and_then(|mut child| {
+                    let status = child.wait();
+                    crate::interrupt::child_done();
+                    status
+                });
         match status {
             Ok(s) if s.success() => eprintln!(
                 "felt: frame {frame} done in {:.1} s",

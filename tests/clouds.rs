@@ -219,7 +219,16 @@ fn bad_cloud_inputs_are_diagnostics() {
         ),
         (
             "domain d((0,0,0), (1,1,1), (0,0,0), 0.25); cloudsim s = cloudsim(d); s = cloudstep(s, steps = -1);",
-            "steps must not be negative",
+            "cloudstep steps must be between 0 and 1000000, found -1",
+        ),
+        (
+            "domain d((0,0,0), (1,1,1), (0,0,0), 0.25); cloudsim s = cloudsim(d); s = cloudstep(s, steps = 1000001);",
+            "cloudstep steps must be between 0 and 1000000, found 1000001",
+        ),
+        (
+            // Close to the largest int: refused at once, not left stepping for ages.
+            "domain d((0,0,0), (1,1,1), (0,0,0), 0.25); cloudsim s = cloudsim(d); s = cloudstep(s, steps = 9200000000000000000);",
+            "cloudstep steps must be between 0 and 1000000, found 9200000000000000000",
         ),
         (
             "scalarfield e = cloudellipsoid((0, 0, 0), (1, 0, 1));",
@@ -229,7 +238,7 @@ fn bad_cloud_inputs_are_diagnostics() {
         let outcome = common::run_source("bad.felt", source);
         assert!(!outcome.ok, "{source}");
         assert!(
-            outcome.rendered.contains(message),
+            outcome.rendered.contains(message) && outcome.rendered.contains("bad.felt:1:"),
             "{source}: {}",
             outcome.rendered
         );

@@ -225,3 +225,35 @@ fn knife_order_does_not_change_which_side_a_point_is_on() {
     let v = numbers(&out[0]);
     assert!(v.iter().all(|x| *x == 0.0), "{}", out[0]);
 }
+
+#[test]
+fn a_noise_solid_cut_through_its_zeros_gives_pieces_that_add_up() {
+    // Simplex noise is exactly zero at many points of a regular lattice, some of them sample
+    // points here; a sample evaluated twice in different blocks rounded to either side of
+    // zero, and the mesher lost a crossing between two slabs. The pieces on either side of
+    // the plane x = 0, kept whatever their size, must enclose the uncut solid's volume up
+    // to the cut's first-order error at the crease, which halves with the cell.
+    let shortfall = |cell: f64| {
+        let out = lines_of(common::run_source(
+            "cut.felt",
+            &format!(
+                r#"
+                domain d((-1, -1, -1), (2, 2, 2), (0, 0, 0), {cell});
+                shape[] p = cutpieces(simplex(), {{identity().x}}, d, 0.0);
+                float total = 0;
+                for (int i = 0; i < size(p); i++) {{ total += volume(p[i]); }}
+                print(size(p), total, volume(ls2shape(simplex(), d)));
+                "#
+            ),
+        ));
+        let [count, total, whole] = numbers(&out[0])[..] else {
+            panic!("{out:?}");
+        };
+        assert!(count >= 2.0, "{cell}: {out:?}");
+        assert!(whole > 0.5, "{cell}: {out:?}");
+        (whole - total) / whole
+    };
+    let errors: Vec<f64> = [0.25, 0.1, 0.05].map(shortfall).to_vec();
+    assert!(errors.iter().all(|e| e.abs() < 0.1), "{errors:?}");
+    assert!(errors[2].abs() < errors[0].abs(), "{errors:?}");
+}

@@ -84,3 +84,57 @@ fn flamesplat_mistakes_are_errors_at_the_call() {
         );
     }
 }
+
+/// Loads `name` holding `bytes` through a script, as a user does.
+fn load_file(name: &str, bytes: &[u8]) -> common::Outcome {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join(name), bytes).unwrap();
+    let script = dir.path().join("load.felt");
+    std::fs::write(
+        &script,
+        format!("particles p = loadparticles(\"{name}\");\nprint(p);\nprint(size(p));\n"),
+    )
+    .unwrap();
+    common::run_script(&script, &[])
+}
+
+#[test]
+fn a_column_or_property_named_twice_is_refused_by_name_and_place() {
+    let csv = load_file("dup.csv", b"x,y,z,x\n1,2,3,4\n");
+    assert!(!csv.ok, "{}", csv.rendered);
+    assert!(
+        csv.rendered
+            .contains("this CSV file has two columns named \"x\" (columns 1 and 4)")
+            && csv.rendered.contains("load.felt:1:"),
+        "{}",
+        csv.rendered
+    );
+    let ply = load_file(
+        "dup.ply",
+        b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n\
+          property float z\nproperty float temperature\nproperty float temperature\n\
+          end_header\n1 2 3 4 5\n",
+    );
+    assert!(!ply.ok, "{}", ply.rendered);
+    assert!(
+        ply.rendered.contains(
+            "this PLY file has two vertex properties named \"temperature\" (vertex properties 4 and 5)"
+        ) && ply.rendered.contains("load.felt:1:"),
+        "{}",
+        ply.rendered
+    );
+}
+
+#[test]
+fn a_csv_file_may_start_with_a_byte_order_mark() {
+    let plain = b"x,y,z,heat\n1,2,3,0.5\n-1.25,0,7,2\n".to_vec();
+    let marked = [b"\xef\xbb\xbf".as_slice(), &plain].concat();
+    let a = felt::particles::io::read(&plain, "a.csv").unwrap();
+    let b = felt::particles::io::read(&marked, "b.csv").unwrap();
+    assert_eq!(a.positions, vec![[1.0, 2.0, 3.0], [-1.25, 0.0, 7.0]]);
+    assert_eq!(a.floats("heat").unwrap(), &[0.5, 2.0]);
+    assert_eq!(a, b);
+    // And through a script, as a user loads it.
+    let outcome = load_file("marked.csv", &marked);
+    assert_eq!(lines_of(outcome)[1], "2");
+}

@@ -463,3 +463,83 @@ fn light_names_that_clash_or_break_channels_are_errors() {
         stderr(&out)
     );
 }
+
+/// Runs that append to one VDB file at once (a farm's tasks) take turns: every run's grid is
+/// in the file at the end, in every round. Without the lock each run wrote back the file it
+/// had read, and most grids were lost with every run exiting 0.
+#[test]
+fn concurrent_appends_to_one_vdb_keep_every_grid() {
+    const RUNS: usize = 6;
+    const ROUNDS: usize = 5;
+    let dir = tempfile::tempdir().unwrap();
+    let scenes: Vec<PathBuf> = (0..RUNS)
+        .map(|i| {
+            script(
+                dir.path(),
+                &format!("add{i}.felt"),
+                &format!(
+                    "domain d((0, 0, 0), (1, 1, 1), (0, 0, 0), 0.03125);\n\
+                     scalarcache c(d);\n\
+                     cachewrite(c, scalarfield({i}.5) + identity().x);\n\
+                     cachesave(c, \"shared.vdb#g{i}\", append = true);\n"
+                ),
+            )
+        })
+        .collect();
+    let path = dir.path().join("shared.vdb");
+    for round in 0..ROUNDS {
+        let _ = std::fs::remove_file(&path);
+        let children: Vec<_> = scenes
+            .iter()
+            .map(|scene| {
+                felt()
+                    .arg("run")
+                    .arg(scene)
+                    .arg("--threads")
+                    .arg("1")
+                    .stdout(std::process::Stdio::null())
+                    .stderr(std::process::Stdio::piped())
+                    .spawn()
+                    .unwrap()
+            })
+            .collect();
+        for child in children {
+            ran(child.wait_with_output().unwrap());
+        }
+        let mut names: Vec<String> = felt::grid::vdb::read_file(&path)
+            .unwrap()
+            .into_iter()
+            .map(|g| g.name)
+            .collect();
+        names.sort();
+        let every: Vec<String> = (0..RUNS).map(|i| format!("g{i}")).collect();
+        assert_eq!(names, every, "round {round} lost grids");
+    }
+    // Each grid holds its own run's values: read back through felt's own loader.
+    let check = script(
+        dir.path(),
+        "check.felt",
+        &(0..RUNS)
+            .map(|i| {
+                format!("print(probe(cacheload(\"shared.vdb\", \"g{i}\"), (0.5, 0.5, 0.5)));\n")
+            })
+            .collect::<String>(),
+    );
+    let out = ran(felt().arg("run").arg(&check).output().unwrap());
+    let printed: Vec<f64> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| l.parse().unwrap())
+        .collect();
+    assert_eq!(printed.len(), RUNS);
+    for (i, value) in printed.iter().enumerate() {
+        assert!((value - (i as f64 + 1.0)).abs() < 1e-5, "g{i}: {value}");
+    }
+    // Only the file and its lock file stay beside the scripts: no temporary is left.
+    let mut left: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| !n.ends_with(".felt"))
+        .collect();
+    left.sort();
+    assert_eq!(left, ["shared.vdb", "shared.vdb.lock"]);
+}

@@ -62,7 +62,7 @@ pub fn load_mesh(path: &Path) -> Outcome<Mesh> {
     });
     mesh.map_err(|f| Failure {
         message: format!("{}: {}", path.display(), f.message),
-        help: f.help,
+        ..f
     })
 }
 

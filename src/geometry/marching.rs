@@ -12,9 +12,10 @@
 //! decisions give a closed, oriented 2-manifold with the usual MC triangle count.
 //!
 //! The work runs in slabs of cube layers along the domain's third axis, in parallel. A slab
-//! samples its layers in blocks of `BLOCK` points, skipping 8 × 8 columns whose interval range
-//! shows a single sign, and shares each crossing between its cubes through per-layer edge
-//! tables. Crossings on the plane between two slabs belong to the upper slab; the lower one
+//! samples its own layers in blocks of `BLOCK` points, skipping 8 × 8 columns whose interval
+//! range shows a single sign; the plane it shares with the next slab is that slab's, sampled
+//! once, so both see one value there. A slab shares each crossing between its cubes through
+//! per-layer edge tables. Crossings on the plane between two slabs belong to the upper slab; the lower one
 //! records them by edge and the merge resolves them, in slab order, so the output is the same
 //! for any number of threads.
 
@@ -106,18 +107,34 @@ pub fn marching_cubes(levelset: &dyn FieldSampler, domain: &Domain) -> Outcome<M
         .step_by(thickness)
         .map(|c0| (c0, (c0 + thickness).min(cube_layers)))
         .collect();
-    let meshes: Vec<Outcome<SlabMesh>> = slabs
+    // Each slab samples its own layers and the last slab the closing virtual one too, so every
+    // sample is evaluated once. Two slabs must see the same value on the plane they share: a
+    // noise value evaluated again in another block can round to the other side of zero (noise
+    // is exactly zero at many points of a regular lattice), and the lower slab would then
+    // have a crossing the upper one lacks.
+    let sampled: Vec<Outcome<Vec<f32>>> = slabs
         .par_iter()
         .map(|&(c0, c1)| {
-            let values = grid.sample_slab(levelset, c0, c1)?;
-            Ok(grid.extract_slab(&values, c0, c1))
+            let end = if c1 == cube_layers { c1 + 1 } else { c1 };
+            grid.sample_layers(levelset, c0, end)
         })
         .collect();
-    let mut slab_meshes = Vec::with_capacity(meshes.len());
-    for mesh in meshes {
-        slab_meshes.push(mesh?);
+    let mut values = Vec::with_capacity(sampled.len());
+    for layers in sampled {
+        values.push(layers?);
     }
-    merge(slab_meshes)
+    let layer = grid.layer_size();
+    for s in 1..values.len() {
+        let (lower, upper) = values.split_at_mut(s);
+        lower[s - 1].extend_from_slice(&upper[0][..layer]);
+    }
+    let meshes: Vec<SlabMesh> = slabs
+        .par_iter()
+        .zip(&values)
+        .map(|(&(c0, c1), values)| grid.extract_slab(values, c0, c1))
+        .collect();
+    drop(values);
+    merge(meshes)
 }
 
 /// The samples with their virtual outside layer: padded index `p` along an axis is real cell
@@ -158,14 +175,19 @@ impl Lattice<'_> {
         self.padded[0] * self.padded[1]
     }
 
-    /// Samples padded layers `c0..=c1` into a buffer of `(c1 - c0 + 1)` layers.
-    fn sample_slab(&self, levelset: &dyn FieldSampler, c0: usize, c1: usize) -> Outcome<Vec<f32>> {
+    /// Samples padded layers `c0..end` into a buffer of `end - c0` layers.
+    fn sample_layers(
+        &self,
+        levelset: &dyn FieldSampler,
+        c0: usize,
+        end: usize,
+    ) -> Outcome<Vec<f32>> {
         let [nx, ny, nz] = self.resolution;
         let [px, _, _] = self.padded;
-        let mut values = vec![VIRTUAL; (c1 - c0 + 1) * self.layer_size()];
-        // Real layers within the slab, as real indices.
+        let mut values = vec![VIRTUAL; (end - c0) * self.layer_size()];
+        // Real layers among them, as real indices (padded layer `k + 1` is real layer `k`).
         let k0 = c0.max(1) - 1;
-        let k1 = c1.min(nz);
+        let k1 = end.min(nz + 1) - 1;
         if k0 >= k1 {
             return Ok(values);
         }
@@ -454,9 +476,8 @@ fn merge(slabs: Vec<SlabMesh>) -> Outcome<Mesh> {
                 let at = next.bottom.binary_search_by_key(&key, |&(k, _)| k).ok()?;
                 Some(global[s + 1][next.bottom[at].1 as usize])
             });
-            global[s][local as usize] = resolved.ok_or_else(|| {
-                Failure::new("internal error: a crossing between two slabs has no owner")
-            })?;
+            global[s][local as usize] = resolved
+                .ok_or_else(|| Failure::internal("a crossing between two slabs has no owner"))?;
         }
     }
     for (slab, map) in slabs.iter().zip(&global) {

@@ -184,6 +184,18 @@ pub(crate) fn add_property(
             "a property comes before any element".into(),
         ));
     };
+    // Readers look properties up by name: a second one of a name would be silently ignored.
+    if let Some(first) = element.properties.iter().position(|p| p.name == name) {
+        return Err(header_error(
+            line,
+            format!(
+                "element '{}' has two properties named '{name}' (properties {} and {})",
+                element.name,
+                first + 1,
+                element.properties.len() + 1
+            ),
+        ));
+    }
     element.properties.push(Property {
         name: name.to_string(),
         kind,

@@ -177,6 +177,19 @@ pub fn grid_of(cache: &Cache, options: &GridOptions) -> Outcome<VdbGrid> {
 /// grids already in the file stay, except one of the same name, which `grid` replaces where
 /// it was.
 pub fn save(path: &Path, grid: VdbGrid, keep: bool, metadata: &[(String, VdbMeta)]) -> Outcome<()> {
+    // Held from the read to the rename: runs appending to one file at once (a farm's tasks)
+    // take turns, or each would write back the file it read and drop the others' grids.
+    let _turn = if keep {
+        Some(crate::output::lock_for_update(path).map_err(|e| {
+            Failure::new(format!(
+                "cannot add grid '{}' to the VDB file '{}': {e}",
+                grid.name,
+                path.display()
+            ))
+        })?)
+    } else {
+        None
+    };
     let mut grids = if keep && path.exists() {
         vdb::read_file(path).map_err(|f| Failure {
             message: format!(

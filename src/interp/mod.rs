@@ -187,8 +187,12 @@ impl Interpreter {
 
     /// A runtime error at `span`, with the current FELT call stack attached.
     pub(crate) fn error(&self, span: Span, failure: Failure) -> Diagnostic {
-        let mut d =
-            Diagnostic::error(Stage::Runtime, span, failure.message).with_help_opt(failure.help);
+        let stage = if failure.internal {
+            Stage::Internal
+        } else {
+            Stage::Runtime
+        };
+        let mut d = Diagnostic::error(stage, span, failure.message).with_help_opt(failure.help);
         for site in self.calls.iter().rev() {
             d.related.push(
                 Diagnostic::error(

@@ -51,7 +51,20 @@ struct Layout {
     position: [usize; 3],
 }
 
-fn layout(columns: &[String], what: &str) -> Outcome<Layout> {
+/// The layout of `columns` (CSV columns or PLY properties: `plural` names them) in the file
+/// `what` names. A name given twice is refused: which of the two is meant cannot be known,
+/// and keeping either would silently drop the other's values.
+fn layout(columns: &[String], what: &str, plural: &str) -> Outcome<Layout> {
+    for (later, name) in columns.iter().enumerate() {
+        if let Some(first) = columns[..later].iter().position(|c| c == name) {
+            return Err(Failure::new(format!(
+                "{what} has two {plural} named \"{name}\" ({plural} {} and {})",
+                first + 1,
+                later + 1
+            ))
+            .with_help("rename or remove one of them: every name becomes one attribute"));
+        }
+    }
     let find = |n: &str| columns.iter().position(|c| c == n);
     let (Some(x), Some(y), Some(z)) = (find("x"), find("y"), find("z")) else {
         return Err(Failure::new(format!("{what} has no x, y and z columns"))
@@ -161,7 +174,7 @@ fn read_ply(bytes: &[u8]) -> Outcome<Particles> {
         ));
     }
     let columns: Vec<String> = properties.iter().map(|p| p.name.clone()).collect();
-    let layout = layout(&columns, "this PLY file")?;
+    let layout = layout(&columns, "this PLY file", "vertex properties")?;
     let data = &bytes[body..];
     match format {
         Format::Ascii => {
@@ -302,6 +315,8 @@ fn find(haystack: &[u8], needle: &[u8]) -> Option<usize> {
 fn read_csv(bytes: &[u8]) -> Outcome<Particles> {
     let text =
         std::str::from_utf8(bytes).map_err(|_| Failure::new("this CSV file is not UTF-8 text"))?;
+    // Spreadsheets often start UTF-8 CSV with a byte-order mark; it is not part of the header.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut lines = text
         .lines()
         .enumerate()
@@ -310,7 +325,7 @@ fn read_csv(bytes: &[u8]) -> Outcome<Particles> {
         .next()
         .ok_or_else(|| Failure::new("this CSV file is empty"))?;
     let columns: Vec<String> = header.split(',').map(|c| c.trim().to_string()).collect();
-    let layout = layout(&columns, "this CSV file")?;
+    let layout = layout(&columns, "this CSV file", "columns")?;
     let rows: Vec<(usize, &str)> = lines.collect();
     assemble(&layout, columns.len(), rows.len(), |i, row| {
         let (line, text) = rows[i];

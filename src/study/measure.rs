@@ -79,7 +79,9 @@ impl Runner {
             .stdout(Stdio::piped())
             .stderr(Stdio::piped());
         let start = Instant::now();
-        let mut child = command.spawn()?;
+        // In a group of its own, so an interrupted study stops the run and all it started
+        // (`crate::interrupt::stop_children`) before it exits.
+        let mut child = crate::interrupt::spawn_child(&mut command)?;
         // Drained on their own threads so a chatty run never blocks on a full pipe.
         let drain = |pipe: Option<Box<dyn Read + Send>>| {
             std::thread::spawn(move || {
@@ -102,7 +104,9 @@ impl Runner {
                 .take()
                 .map(|p| Box::new(p) as Box<dyn Read + Send>),
         );
-        let usage = reap(&mut child)?;
+        let usage = reap(&mut child);
+        crate::interrupt::child_done();
+        let usage = usage?;
         let seconds = start.elapsed().as_secs_f64();
         Ok(Measured {
             seconds,

@@ -62,6 +62,13 @@ fn ply_defects_say_what_is_wrong() {
     assert!(e.contains("vertex 2") && e.contains("only 1"), "{e}");
     let e = ply_error(b"ply\nformat ascii 1.0\nelement face 1\nproperty list uchar float vertex_indices\nend_header\n3 0 1 2\n");
     assert!(e.contains("integers"), "{e}");
+    // A property named twice would leave the second one's values silently unread.
+    let e = ply_error(b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nproperty float x\nend_header\n0 0 0 1\n");
+    assert!(
+        e.contains("line 7")
+            && e.contains("element 'vertex' has two properties named 'x' (properties 1 and 4)"),
+        "{e}"
+    );
 }
 
 #[test]
