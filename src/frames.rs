@@ -107,6 +107,31 @@ pub fn has_pattern(path: &str) -> bool {
     (0..chars.len()).any(|i| pattern_at(&chars, i).is_some())
 }
 
+/// Whether `path` already holds `frame`'s number as a run of digits of its own (`0012` or `12`
+/// for frame 12, with its sign for a negative frame): a path the script built from its frame.
+/// A path that does not depend on the frame would name every frame of a range alike.
+pub fn names_frame(path: &str, frame: i64) -> bool {
+    let bytes = path.as_bytes();
+    let mut i = 0;
+    while i < bytes.len() {
+        if !bytes[i].is_ascii_digit() {
+            i += 1;
+            continue;
+        }
+        let start = i;
+        while i < bytes.len() && bytes[i].is_ascii_digit() {
+            i += 1;
+        }
+        let negative = start > 0 && bytes[start - 1] == b'-';
+        let value = path[start..i].parse::<i64>().ok();
+        let signed = value.map(|v| if negative { -v } else { v });
+        if signed == Some(frame) || (frame >= 0 && value == Some(frame)) {
+            return true;
+        }
+    }
+    false
+}
+
 /// The frame pattern starting at `chars[i]`: `(digits, characters it spans)`.
 fn pattern_at(chars: &[char], i: usize) -> Option<(usize, usize)> {
     let digits_from = |j: usize| chars[j..].iter().take_while(|c| c.is_ascii_digit()).count();
@@ -172,6 +197,17 @@ mod tests {
             let error = text.parse::<FrameRange>().unwrap_err();
             assert!(error.contains(says), "{text}: {error}");
         }
+    }
+
+    #[test]
+    fn a_path_names_its_frame_by_a_run_of_digits_of_that_value() {
+        assert!(names_frame("frame.0012.exr", 12));
+        assert!(names_frame("shots/12/beauty.exr", 12));
+        assert!(names_frame("frame.-003.exr", -3));
+        assert!(!names_frame("frame.0012.exr", 1));
+        assert!(!names_frame("frame.0112.exr", 12));
+        assert!(!names_frame("frame.exr", 0));
+        assert!(!names_frame("frame.3.exr", -3));
     }
 
     #[test]

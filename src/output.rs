@@ -140,15 +140,18 @@ pub fn framed(text: &str) -> String {
 }
 
 /// Whether an output may be written at `text` as far as frames go: a pattern needs a frame to
-/// fill it, and one frame of a range needs a pattern.
+/// fill it, and one frame of a range needs a name of its own: a pattern, or the frame's number
+/// already in the name, as a path built with `format("name.%04d.exr", frame)` has it.
 pub fn check_frame(text: &str) -> Result<(), String> {
     let pattern = crate::frames::has_pattern(text);
-    if pattern && current_frame().is_none() {
+    let frame = current_frame();
+    if pattern && frame.is_none() {
         return Err(String::from(
             "its name has a frame pattern but the script declares no `param int frame`",
         ));
     }
-    if !pattern && crate::engine::with(|e| e.output.in_range()) {
+    let numbered = frame.is_some_and(|f| crate::frames::names_frame(text, f));
+    if !pattern && !numbered && crate::engine::with(|e| e.output.in_range()) {
         return Err(String::from(
             "every frame of --frames would write this same file; put the frame in its name \
              (`name.####.exr`, `name.%04d.exr` or `name.$F4.exr`)",

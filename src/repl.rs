@@ -1,6 +1,6 @@
 //! `felt repl`: an interactive session over the same `Session` a batch run uses. Input stays
-//! open across lines while brackets, braces or a string are unclosed (the parser decides);
-//! each input is checked, then run; an expression statement prints its value; an error is
+//! open across lines while brackets, braces or a string are unclosed (the parser decides),
+//! each further line read at its own `...> ` prompt; each input is checked, then run; an expression statement prints its value; an error is
 //! shown as a diagnostic and the session keeps its state. Ctrl-C during an evaluation stops it
 //! and returns to the prompt; at the prompt it clears the line. History persists in
 //! `~/.felt_history` (or the file named by `FELT_HISTORY`).
@@ -15,7 +15,7 @@ use rustyline::error::ReadlineError;
 use rustyline::highlight::Highlighter;
 use rustyline::hint::Hinter;
 use rustyline::history::DefaultHistory;
-use rustyline::validate::{ValidationContext, ValidationResult, Validator};
+use rustyline::validate::Validator;
 use rustyline::{Context, Editor, Helper};
 use std::cell::RefCell;
 use std::io::IsTerminal;
@@ -77,16 +77,11 @@ impl Hinter for FeltHelper {
 
 impl Highlighter for FeltHelper {}
 
-impl Validator for FeltHelper {
-    fn validate(&self, ctx: &mut ValidationContext<'_>) -> rustyline::Result<ValidationResult> {
-        let input = ctx.input();
-        if input.trim_start().starts_with(':') || !syntax::is_incomplete(input) {
-            Ok(ValidationResult::Valid(None))
-        } else {
-            Ok(ValidationResult::Incomplete)
-        }
-    }
-}
+/// Every line is accepted as typed: an input left open is continued by `read_input` at the
+/// continuation prompt. (rustyline can keep an open input in one editing buffer, but then
+/// shows the prompt on its first line only, and a TD cannot tell felt waiting for the rest
+/// of a function from felt busy.)
+impl Validator for FeltHelper {}
 
 impl Helper for FeltHelper {}
 
@@ -145,7 +140,7 @@ pub fn run() -> ExitCode {
         env!("CARGO_PKG_VERSION")
     );
     loop {
-        match editor.readline("felt> ") {
+        match read_input(&mut editor) {
             Ok(line) => {
                 if line.trim().is_empty() {
                     continue;
@@ -169,6 +164,23 @@ pub fn run() -> ExitCode {
         }
     }
     ExitCode::SUCCESS
+}
+
+/// The prompt of an input's first line, and of the lines that continue an open input.
+const PROMPT: &str = "felt> ";
+const CONTINUATION_PROMPT: &str = "...> ";
+
+/// Reads one input: a line at `PROMPT`, then, while the parser says it is unfinished (an open
+/// bracket, brace or string; a `:` command never is), further lines at `CONTINUATION_PROMPT`,
+/// joined by newlines. Ctrl-C on a continuation line drops the whole input.
+fn read_input(editor: &mut Editor<FeltHelper, DefaultHistory>) -> rustyline::Result<String> {
+    let mut input = editor.readline(PROMPT)?;
+    while !input.trim_start().starts_with(':') && syntax::is_incomplete(&input) {
+        let line = editor.readline(CONTINUATION_PROMPT)?;
+        input.push('\n');
+        input.push_str(&line);
+    }
+    Ok(input)
 }
 
 /// Handles one input; returns false to leave.

@@ -127,6 +127,12 @@ pub trait GridSource: Send + Sync + Debug {
         let _ = interp;
         self.range(region)
     }
+    /// The same as if the read held its outermost cells' values in the half-cell border
+    /// rather than extrapolating there (`outside = "hold"`). A render asks it to tell negative
+    /// densities of the samples themselves from those the border's extrapolation makes.
+    fn range_held(&self, region: &Aabb, interp: Interp) -> Vec<(f64, f64)> {
+        self.range_read(region, interp)
+    }
     /// Where the samples sit, for schemes that look at the cells around a point (the
     /// clamp of MacCormack advection).
     fn lattice(&self) -> Option<Lattice> {
@@ -180,6 +186,11 @@ pub trait FieldSampler: Send + Sync {
     fn bounds(&self) -> Option<Aabb>;
     /// A conservative range `(lo, hi)` per component over `region` (interval evaluation).
     fn range(&self, region: &Aabb) -> Vec<(f64, f64)>;
+    /// The same with every grid read taken as held in its half-cell border
+    /// (`GridSource::range_held`); for a field that reads no grid, `range`.
+    fn range_held(&self, region: &Aabb) -> Vec<(f64, f64)> {
+        self.range(region)
+    }
     /// The grids the field reads (for `grid::demand`); none for a closure.
     fn grids(&self) -> Vec<Arc<dyn GridSource>> {
         Vec::new()

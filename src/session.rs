@@ -349,23 +349,33 @@ impl Session {
     }
 
     /// The `--profile` table: every grid-producing operation that ran (kind, source line,
-    /// bricks filled of total, seconds, bytes), then the count of those never evaluated.
+    /// bricks filled of total, seconds, bytes), then how many of the grids the run made were
+    /// never evaluated, and where: grids, not lines, so a loop's solves that never ran count
+    /// one each.
     pub fn profile_report(&self) -> String {
         let entries = self.engine.profile.report();
-        let (ran, never): (Vec<_>, Vec<_>) = entries
-            .into_iter()
-            .partition(|e| e.bricks_filled + e.bricks_skipped > 0 || e.seconds > 0.0);
+        let ran: Vec<_> = entries
+            .iter()
+            .filter(|e| e.bricks_filled + e.bricks_skipped > 0 || e.seconds > 0.0)
+            .cloned()
+            .collect();
         let mut text = String::from("profile: grids computed\n");
         text.push_str(&crate::grid::profile::format_table(&ran));
+        let made: u64 = entries.iter().map(|e| e.instances).sum();
+        let idle: Vec<(u64, &crate::grid::profile::ProfileEntry)> = entries
+            .iter()
+            .map(|e| (e.instances.saturating_sub(e.evaluated), e))
+            .filter(|(n, _)| *n > 0)
+            .collect();
+        let never: u64 = idle.iter().map(|(n, _)| n).sum();
         text.push_str(&format!(
-            "{} grid node{} never evaluated",
-            never.len(),
-            if never.len() == 1 { "" } else { "s" }
+            "{never} of {made} grid{} never evaluated",
+            if made == 1 { "" } else { "s" }
         ));
-        if !never.is_empty() {
-            let labels: Vec<String> = never
+        if !idle.is_empty() {
+            let labels: Vec<String> = idle
                 .iter()
-                .map(|e| format!("{} ({})", e.label, e.kind))
+                .map(|(n, e)| format!("{} ({}): {n} of {}", e.label, e.kind, e.instances))
                 .collect();
             text.push_str(&format!(": {}", labels.join(", ")));
         }

@@ -123,6 +123,51 @@ fn render_warns_once_per_input_with_counts_and_the_line() {
 }
 
 #[test]
+fn a_cache_of_a_non_negative_density_renders_without_a_warning() {
+    let dir = tempfile::tempdir().unwrap();
+    let image = |name: &str| dir.path().join(name).display().to_string();
+    // Cells at x = -0.875, -0.625, ...: the first two hold 0 and 0.075, so the default read's
+    // linear extrapolation in the half cell inside the face at x = -1 goes below zero.
+    let outcome = common::run_source(
+        "faces.felt",
+        &format!(
+            r#"
+            domain box((-1, -1, -1), (2, 2, 2), (0, 0, 0), 0.25);
+            scalarcache c(box);
+            cachewrite(c, max(identity() * (1, 0, 0) + 0.7, 0));
+            scalarcache signed(box);
+            cachewrite(signed, identity() * (1, 0, 0));
+            camera cam = camera((0, 0, 4), (0, 0, 0), (0, 1, 0), 40);
+            render("{}", density = cacheread(c), camera = cam, bounds = box, width = 24, height = 24, step = 0.05);
+            render("{}", density = 2 * cacheread(c) + cacheread(c, outside = "hold"), camera = cam, bounds = box, width = 24, height = 24, step = 0.05);
+            render("{}", density = cacheread(signed), camera = cam, bounds = box, width = 24, height = 24, step = 0.05);
+            "#,
+            image("a.exr"),
+            image("b.exr"),
+            image("c.exr"),
+        ),
+    );
+    assert!(outcome.ok, "{}", outcome.rendered);
+    // Only the cache with negative cells warns, and its help names the read that holds.
+    let warnings = warnings_of(&outcome);
+    assert_eq!(warnings.len(), 1, "{warnings:?}");
+    assert!(
+        warnings[0].starts_with("render: density was negative at "),
+        "{warnings:?}"
+    );
+    assert!(
+        outcome.rendered.contains("faces.felt:10:"),
+        "{}",
+        outcome.rendered
+    );
+    assert!(
+        all_text(&outcome).contains("outside = \"hold\""),
+        "{}",
+        outcome.rendered
+    );
+}
+
+#[test]
 fn noise_correlations_that_overflow_are_refused() {
     let outcome = common::run_source(
         "noise.felt",

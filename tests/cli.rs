@@ -424,6 +424,9 @@ fn repl_in_a_real_terminal() {
     send("func float cube(float x) {");
     send("    return x * x * x;");
     send("}");
+    // Each line after the first of an open input has the continuation prompt.
+    let pane = wait_for("...> }");
+    assert!(pane.contains("...>     return x * x * x;"), "{pane}");
     send("cube(3)");
     wait_for("27.0");
     send("cube(undefined_name)");

@@ -79,6 +79,18 @@ const CASES: &[(&str, usize, usize, &str)] = &[
         27,
         "argument `hi` of `clamp` must be float, found vector",
     ),
+    (
+        "cache_as_field",
+        3,
+        19,
+        "argument `density` of `render` must be scalarfield, found scalarcache",
+    ),
+    (
+        "frame_pattern_without_frame",
+        3,
+        14,
+        "its name has a frame pattern but the script declares no",
+    ),
 ];
 
 /// The cases `felt check` must find without running anything: each is reported by the
@@ -91,6 +103,8 @@ const CHECKED: &[&str] = &[
     "keyword_and_position",
     "argument_of_wrong_type",
     "wrong_arity",
+    "cache_as_field",
+    "frame_pattern_without_frame",
 ];
 
 #[test]
@@ -151,6 +165,63 @@ fn call_errors_are_found_by_the_checker_before_any_work() {
         );
         // One form at most is shown, never the list of every form.
         assert!(flat.matches("->").count() <= 1, "{name}: {rendered}");
+    }
+}
+
+/// The checker's diagnostics for `source`, rendered, with the whitespace flattened.
+fn checked(source: &str) -> (Vec<felt::diagnostic::Diagnostic>, String) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("call.felt");
+    std::fs::write(&path, source).unwrap();
+    let mut session =
+        Session::new(Box::new(common::Captured::default())).unwrap_or_else(|_| panic!());
+    let units = session.load(&path).unwrap_or_else(|_| panic!("loads"));
+    let diagnostics = session.check(&units);
+    let rendered = diagnostic::render(&diagnostics, &session.sources.borrow(), false);
+    (
+        diagnostics,
+        rendered.split_whitespace().collect::<Vec<_>>().join(" "),
+    )
+}
+
+#[test]
+fn the_checker_reports_every_bad_argument_of_a_call() {
+    let (diagnostics, flat) = checked(
+        "scalarcache c(domain((-1, -1, -1), (2, 2, 2), (0, 0, 0), 0.5));\n\
+         camera cam = camera((0, 0, 3), (0, 0, 0), (0, 1, 0), 40);\n\
+         render(\"out.exr\", samples = 16, density = c, camera = cam, width = \"wide\");\n",
+    );
+    assert_eq!(diagnostics.len(), 3, "{flat}");
+    for (column, phrase) in [
+        (
+            19,
+            "`render` has no argument `samples`; did you mean `spp`?",
+        ),
+        (
+            33,
+            "argument `density` of `render` must be scalarfield, found scalarcache",
+        ),
+        (60, "argument `width` of `render` must be int, found string"),
+    ] {
+        assert!(
+            flat.contains(&format!(":3:{column}]")) && flat.contains(phrase),
+            "{phrase}: {flat}"
+        );
+    }
+    // A cache where a field is wanted names the read that makes one of it, for every shape.
+    assert!(flat.contains("`cacheread(c)`"), "{flat}");
+    for (cache, field) in [
+        ("vectorcache", "vectorfield"),
+        ("matrixcache", "matrixfield"),
+    ] {
+        let (diagnostics, flat) = checked(&format!(
+            "{cache} c(domain((-1, -1, -1), (2, 2, 2), (0, 0, 0), 0.5));\n{field} f = c;\n"
+        ));
+        assert_eq!(diagnostics.len(), 1, "{flat}");
+        assert!(
+            flat.contains(&format!("read it as a {field} with `cacheread(c)`")),
+            "{cache}: {flat}"
+        );
     }
 }
 

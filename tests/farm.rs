@@ -149,6 +149,56 @@ fn a_frame_range_runs_each_frame_with_its_own_outputs() {
 }
 
 #[test]
+fn a_path_built_from_the_frame_names_each_frame_of_a_range() {
+    let dir = tempfile::tempdir().unwrap();
+    let script = |name: &str, path: &str| {
+        let at = dir.path().join(name);
+        std::fs::write(
+            &at,
+            format!(
+                "param int frame = 1;\nparam int take = 7;\n\
+                 scalarcache c(domain((0,0,0), (1,1,1), (0,0,0), 0.5));\n\
+                 cachewrite(c, scalarfield(frame));\ncachesave(c, {path});\n"
+            ),
+        )
+        .unwrap();
+        at.display().to_string()
+    };
+    let out = tempfile::tempdir().unwrap();
+    let built = script("built.felt", "format(\"built.%04d.vdb\", frame)");
+    let ran = run(&[
+        "run",
+        &built,
+        "--frames",
+        "1-2",
+        "--output-dir",
+        &dir_arg(out.path()),
+    ]);
+    assert_ok(&ran);
+    for frame in [1, 2] {
+        assert!(out.path().join(format!("built.{frame:04}.vdb")).exists());
+    }
+    // A path built from something else is still one file for every frame.
+    let fixed = script("fixed.felt", "format(\"take.%04d.vdb\", take)");
+    let ran = run(&[
+        "run",
+        &fixed,
+        "--frames",
+        "1-2",
+        "--output-dir",
+        &dir_arg(out.path()),
+    ]);
+    assert_eq!(ran.status.code(), Some(1));
+    let flat = text(&ran.stderr)
+        .replace('│', " ")
+        .split_whitespace()
+        .collect::<Vec<_>>()
+        .join(" ");
+    assert!(flat.contains("put the frame in its name"), "{flat}");
+    assert!(!out.path().join("take.0007.vdb").exists());
+}
+
+#[test]
 fn a_failed_frame_is_reported_and_the_others_still_run() {
     let dir = tempfile::tempdir().unwrap();
     let script = dir.path().join("fails.felt");

@@ -246,7 +246,11 @@ fn only_what_an_output_reads_is_solved() {
     let out = felt_cli(&script, &[]);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
-    assert!(stderr.contains("grid nodes never evaluated: "), "{stderr}");
+    // Ten caches and ten solves, counted as grids, not as the two lines that make them.
+    assert!(
+        stderr.contains("20 of 20 grids never evaluated: "),
+        "{stderr}"
+    );
     assert!(
         !stderr.lines().any(|l| l.starts_with("fftdivfree")),
         "{stderr}"
@@ -258,6 +262,13 @@ fn only_what_an_output_reads_is_solved() {
     assert!(out.status.success(), "{stderr}");
     let (grids, filled, _) = profile_row(&stderr, "fftdivfree");
     assert_eq!((grids, filled), (10, 4 * 8), "{stderr}");
+    // The six solves after the probe never ran, nor the caches of frames 4 to 9 they read.
+    assert!(
+        stderr.contains("12 of 20 grids never evaluated: "),
+        "{stderr}"
+    );
+    assert!(stderr.contains("(fftdivfree): 6 of 10"), "{stderr}");
+    assert!(stderr.contains("(cachewrite): 6 of 10"), "{stderr}");
 }
 
 #[test]

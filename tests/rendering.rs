@@ -92,3 +92,91 @@ fn render_options_are_checked_in_the_script_authors_terms() {
         bad_size.rendered
     );
 }
+
+/// The `worldToNDC` matrix of an EXR file's header (the `exr` crate reads this standard
+/// attribute into its own field), as Imath's row-major matrix.
+fn world_to_ndc(path: &std::path::Path) -> [f64; 16] {
+    use exr::prelude::traits::*;
+    let image = exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .all_layers()
+        .all_attributes()
+        .from_file(path)
+        .unwrap();
+    image.layer_data[0]
+        .attributes
+        .world_to_normalized_device
+        .unwrap_or_else(|| panic!("no worldToNDC in {}", path.display()))
+        .map(f64::from)
+}
+
+#[test]
+fn a_small_blob_lands_where_the_headers_world_to_ndc_projects_its_centre() {
+    // A Gaussian blob of density, small beside its distance (sigma / depth = 0.01, so the
+    // perspective shifts its image's centroid from its centre's projection by under 0.01 px),
+    // well off the image centre, rendered with one ray per pixel centre. Thin (peak optical
+    // depth 0.025), so alpha is nearly proportional to the density along each ray.
+    let (width, height) = (160usize, 120usize);
+    let centre = [0.9, 0.5, 0.3];
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("blob.exr");
+    let outcome = common::run_source(
+        "blob.felt",
+        &format!(
+            r#"
+            vector c = ({}, {}, {});
+            float sigma = 0.05;
+            scalarfield r2 = (identity() - c) * (identity() - c);
+            scalarfield rho = exp(-r2 / (2 * sigma * sigma));
+            domain box(c - (0.35, 0.35, 0.35), (0.7, 0.7, 0.7), (0, 0, 0), 0.05);
+            camera cam = camera((0, 0, 5), (0, 0, 0), (0, 1, 0), 40);
+            render("{}", density = rho, camera = cam, bounds = box, kappa = 0.2, step = 0.005,
+                   width = {width}, height = {height});
+            "#,
+            centre[0],
+            centre[1],
+            centre[2],
+            path.display()
+        ),
+    );
+    assert!(outcome.ok, "{}", outcome.rendered);
+    let image = exr::prelude::read_first_rgba_layer_from_file(
+        &path,
+        move |size, _| vec![0f32; size.width() * size.height()],
+        move |alpha, at, (_, _, _, a): (f32, f32, f32, f32)| {
+            alpha[at.y() * width + at.x()] = a;
+        },
+    )
+    .unwrap();
+    let alpha = image.layer_data.channel_data.pixels;
+    // Pixel (x, y) covers [x, x + 1) x [y, y + 1) in raster space, its ray through the centre.
+    let (mut sum, mut sx, mut sy) = (0.0f64, 0.0f64, 0.0f64);
+    for y in 0..height {
+        for x in 0..width {
+            let a = f64::from(alpha[y * width + x]);
+            sum += a;
+            sx += a * (x as f64 + 0.5);
+            sy += a * (y as f64 + 0.5);
+        }
+    }
+    let (cx, cy) = (sx / sum, sy / sum);
+    // OpenEXR's worldToNDC: a row vector times the matrix, divided by w; NDC (0, 0) is the
+    // top-left corner of the image and (1, 1) the bottom-right.
+    let m = world_to_ndc(&path);
+    let row = [centre[0], centre[1], centre[2], 1.0];
+    let ndc: Vec<f64> = (0..4)
+        .map(|j| (0..4).map(|i| row[i] * m[i * 4 + j]).sum())
+        .collect();
+    let (px, py) = (
+        ndc[0] / ndc[3] * width as f64,
+        ndc[1] / ndc[3] * height as f64,
+    );
+    // Well away from the centre of the image, so an offset or a flip would show.
+    assert!(px > 110.0 && py < 45.0, "({px}, {py})");
+    assert!(
+        (cx - px).abs() < 0.05 && (cy - py).abs() < 0.05,
+        "centroid ({cx}, {cy}), projected ({px}, {py})"
+    );
+}

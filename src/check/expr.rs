@@ -279,7 +279,13 @@ impl Checker<'_> {
         };
         Type::Error
     }
+}
 
+/// The builtins that write their `path` argument (through `paths::ScriptFiles::writing`), whose
+/// frame patterns need a frame.
+const WRITERS: [&str; 4] = ["render", "cachesave", "saveshape", "saveparticles"];
+
+impl Checker<'_> {
     pub(super) fn builtin_call(&mut self, name: &str, span: Span, args: &[Arg]) -> Type {
         let builtin = self.env.builtins.get(name).expect("checked by the caller");
         let types: Vec<Type> = args.iter().map(|a| self.expr(&a.value)).collect();
@@ -303,17 +309,63 @@ impl Checker<'_> {
                     {
                         self.literal_choices(param, &args[i].value);
                     }
+                    if let Some(i) = *slot
+                        && param.name == "path"
+                        && WRITERS.contains(&name)
+                    {
+                        self.framed_output(&args[i].value, name == "cachesave");
+                    }
                 }
                 sig.ret.clone()
             }
-            Resolution::Mismatch { message, at, help } => {
-                let d = self.error(Stage::Type, at.span(args, span), message);
-                if let Culprit::Keyword(_) = at {
-                    d.label = String::from("no such argument");
+            Resolution::Mismatch {
+                message,
+                at,
+                help,
+                others,
+            } => {
+                // Every argument that does not fit, so one `felt check` shows them all.
+                let first = resolve::Problem { message, at, help };
+                for problem in std::iter::once(first).chain(others) {
+                    let d = self.error(Stage::Type, problem.at.span(args, span), problem.message);
+                    if let Culprit::Keyword(_) = problem.at {
+                        d.label = String::from("no such argument");
+                    }
+                    d.help = problem.help;
                 }
-                d.help = help;
                 Type::Error
             }
+        }
+    }
+
+    /// A literal output path with a frame pattern (`####`, `%04d`, `$F4`) in a script with no
+    /// `param int frame` to fill it: `felt run` refuses it when the file is opened
+    /// (`output::check_frame`), so the checker says so before any work.
+    fn framed_output(&mut self, value: &Expr, grid_name: bool) {
+        if self.has_frame {
+            return;
+        }
+        let ExprKind::Str(text) = &value.kind else {
+            return;
+        };
+        // In `cachesave` the last `#` starts the grid name, not a frame pattern.
+        let file = match text.rsplit_once('#') {
+            Some((file, _)) if grid_name => file,
+            _ => text.as_str(),
+        };
+        if crate::frames::has_pattern(file) {
+            let d = self.error(
+                Stage::Type,
+                value.span,
+                format!(
+                    "cannot write '{text}': its name has a frame pattern but the script declares \
+                     no `param int frame`"
+                ),
+            );
+            d.help = Some(String::from(
+                "declare `param int frame = 1;` (felt run --frames sets it), or take the \
+                 pattern out of the name",
+            ));
         }
     }
 

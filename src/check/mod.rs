@@ -138,6 +138,12 @@ pub fn collect_functions(env: &mut CheckEnv, program: &Program, stdlib: bool) ->
 
 /// Checks the statements and function bodies of a program against `env`, adding its globals.
 pub fn check_program(env: &mut CheckEnv, program: &Program) -> Vec<Diagnostic> {
+    // A `frame` declared at an earlier REPL input counts: its value fills patterns too.
+    let has_frame = env.globals.contains_key("frame")
+        || program.items.iter().any(|item| {
+            matches!(item, Item::Stmt(Stmt { kind: StmtKind::Decl { is_param: true, ty, name, .. }, .. })
+                if name.name == "frame" && Type::from_expr(ty) == Type::Int)
+        });
     let mut checker = Checker {
         env,
         scopes: Vec::new(),
@@ -145,6 +151,7 @@ pub fn check_program(env: &mut CheckEnv, program: &Program) -> Vec<Diagnostic> {
         function: None,
         loop_depth: 0,
         hints_left: MAX_RENDERED,
+        has_frame,
     };
     for item in &program.items {
         match item {
@@ -165,6 +172,7 @@ pub fn type_of_expr(env: &mut CheckEnv, e: &Expr) -> Result<Type, Vec<Diagnostic
         function: None,
         loop_depth: 0,
         hints_left: MAX_RENDERED,
+        has_frame: true,
     };
     let ty = checker.expr(e);
     if checker.diags.iter().any(|d| d.is_error()) {
@@ -186,6 +194,8 @@ struct Checker<'e> {
     /// a script with thousands of unknown names would take quadratic time; only as many get a
     /// hint as diagnostics are ever shown.
     hints_left: usize,
+    /// Whether the script has a `param int frame` to fill frame patterns in output paths.
+    has_frame: bool,
 }
 
 impl Checker<'_> {
@@ -241,7 +251,9 @@ impl Checker<'_> {
                 format!("{what}: expected {expected}, found {found}"),
             );
             d.label = format!("this is {found}");
-            if expected.is_field() && found.is_field() {
+            if let Some(fix) = resolve::cache_hint(found, expected) {
+                d.help = Some(fix);
+            } else if expected.is_field() && found.is_field() {
                 d.help = Some(String::from(
                     "fields of different kinds do not convert; take a component with .x/.y/.z or build one with vectorfield(sx, sy, sz)",
                 ));

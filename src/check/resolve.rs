@@ -6,9 +6,11 @@
 //! counted, and the form with the fewest is the one the author meant. Its first problem is the
 //! message, pointing at the argument (or keyword) that did not fit, and the help shows that
 //! one form, never the whole list: a TD who wrote `render(..., samples = 4)` wants to read
-//! "`render` has no argument `samples`; did you mean `spp`?", not every form of `render`.
+//! "`render` has no argument `samples`; did you mean `spp`?", not every form of `render`. The
+//! form's other problems come with it, so the checker reports every bad argument of a call at
+//! once rather than one per run.
 
-use super::signature::{Builtin, Param, Signature, format_signature};
+use super::signature::{Builtin, Param, ParamType, Signature, format_signature};
 use super::suggest;
 use super::types::Type;
 use crate::failure::Failure;
@@ -24,11 +26,13 @@ pub enum Resolution {
         slots: Vec<Option<usize>>,
         rest: Vec<usize>,
     },
-    /// No form fits; the message says why, pointing at `at`.
+    /// No form fits; the message says why, pointing at `at`. `others` are the closest form's
+    /// further problems, each its own error.
     Mismatch {
         message: String,
         at: Culprit,
         help: Option<String>,
+        others: Vec<Problem>,
     },
 }
 
@@ -57,10 +61,25 @@ impl Culprit {
     }
 }
 
-/// One reason a form does not fit.
-struct Problem {
-    message: String,
-    at: Culprit,
+/// One reason a form does not fit, and its fix where one is likely.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Problem {
+    pub message: String,
+    pub at: Culprit,
+    pub help: Option<String>,
+}
+
+/// The fix for a cache given where a field is expected: a cache is storage, and `cacheread`
+/// is the field that reads it (docs/language.md, "Caches").
+pub fn cache_hint(found: &Type, expected: &Type) -> Option<String> {
+    let shape = found.cache_shape()?;
+    expected.is_field().then(|| {
+        format!(
+            "a {found} is storage, not a field; read it as a {} with `cacheread(c)`, c being \
+             the cache",
+            Type::field_of(shape)
+        )
+    })
 }
 
 /// Matches positional and keyword arguments (`names[i]` is the keyword of argument `i`, if
@@ -74,15 +93,25 @@ pub fn resolve(builtin: &Builtin, types: &[Type], names: &[Option<String>]) -> R
             message: format!("argument `{keyword}` of `{name}` is given twice"),
             at: Culprit::Arg(arg),
             help: Some(format!("remove one of the two `{keyword} = ...`")),
+            others: Vec::new(),
         };
     }
-    if let Some(mismatch) = unknown_keyword(builtin, names) {
-        return mismatch;
-    }
+    // Keywords no form has are problems whatever the form; the forms are then matched
+    // without them, so the other arguments' problems are found in the same pass.
+    let unknown = unknown_keywords(builtin, names);
+    let skip: Vec<bool> = (0..names.len())
+        .map(|i| unknown.iter().any(|p| p.at == Culprit::Keyword(i)))
+        .collect();
     let mut closest: Option<(usize, Vec<Problem>)> = None;
     for (form, sig) in builtin.signatures.iter().enumerate() {
-        match match_signature(name, sig, types, names) {
-            Ok((slots, rest)) => return Resolution::Match { form, slots, rest },
+        match match_signature(name, sig, types, names, &skip) {
+            Ok((slots, rest)) if unknown.is_empty() => {
+                return Resolution::Match { form, slots, rest };
+            }
+            Ok(_) => {
+                closest = Some((form, Vec::new()));
+                break;
+            }
             Err(problems) => {
                 if closest
                     .as_ref()
@@ -93,15 +122,28 @@ pub fn resolve(builtin: &Builtin, types: &[Type], names: &[Option<String>]) -> R
             }
         }
     }
+    if !unknown.is_empty() {
+        let mut problems = unknown;
+        problems.extend(closest.map(|(_, p)| p).unwrap_or_default());
+        let others = problems.split_off(1);
+        let first = problems.remove(0);
+        return Resolution::Mismatch {
+            message: first.message,
+            at: first.at,
+            help: first.help,
+            others,
+        };
+    }
     let Some((form, mut problems)) = closest else {
         return Resolution::Mismatch {
             message: format!("`{name}` has no forms"),
             at: Culprit::Call,
             help: None,
+            others: Vec::new(),
         };
     };
-    let others = problems.len() - 1;
-    let first = problems.swap_remove(0);
+    let others = problems.split_off(1);
+    let first = problems.remove(0);
     let shown = format_signature(name, &builtin.signatures[form]);
     let mut help = if builtin.signatures.len() == 1 {
         format!("`{shown}`: {}", builtin.doc)
@@ -111,17 +153,22 @@ pub fn resolve(builtin: &Builtin, types: &[Type], names: &[Option<String>]) -> R
             builtin.signatures.len()
         )
     };
-    if others > 0 {
+    if !others.is_empty() {
+        let more = others.len();
         help.push_str(&format!(
-            " ({others} more argument{} do{} not fit it either)",
-            if others == 1 { "" } else { "s" },
-            if others == 1 { "es" } else { "" }
+            " ({more} more argument{} do{} not fit it either)",
+            if more == 1 { "" } else { "s" },
+            if more == 1 { "es" } else { "" }
         ));
+    }
+    if let Some(fix) = first.help {
+        help = format!("{fix}\n{help}");
     }
     Resolution::Mismatch {
         message: first.message,
         at: first.at,
         help: Some(help),
+        others,
     }
 }
 
@@ -135,32 +182,39 @@ fn repeated_keyword(names: &[Option<String>]) -> Option<(usize, &str)> {
     })
 }
 
-/// A keyword that no form of the builtin has, with the likely one meant: a parameter of a
-/// similar spelling, or one that other tools' users call by that name (`samples` for `spp`).
-fn unknown_keyword(builtin: &Builtin, names: &[Option<String>]) -> Option<Resolution> {
+/// Every keyword that no form of the builtin has, each with the likely one meant: a parameter
+/// of a similar spelling, or one that other tools' users call by that name (`samples` for
+/// `spp`).
+fn unknown_keywords(builtin: &Builtin, names: &[Option<String>]) -> Vec<Problem> {
     let params = all_params(builtin);
-    let (i, keyword) = names.iter().enumerate().find_map(|(i, n)| {
-        let n = n.as_deref()?;
-        (!params.iter().any(|p| p.name == n)).then_some((i, n))
-    })?;
-    let meant = params
-        .iter()
-        .find(|p| p.aliases.contains(&keyword))
-        .map(|p| p.name.as_str())
-        .or_else(|| suggest::closest(keyword, params.iter().map(|p| p.name.as_str())));
-    let hint = meant
-        .map(|m| format!("; did you mean `{m}`?"))
-        .unwrap_or_default();
     let listed: Vec<&str> = params.iter().map(|p| p.name.as_str()).collect();
-    Some(Resolution::Mismatch {
-        message: format!("`{}` has no argument `{keyword}`{hint}", builtin.name),
-        at: Culprit::Keyword(i),
-        help: Some(format!(
-            "the arguments of `{}` are {}",
-            builtin.name,
-            listed.join(", ")
-        )),
-    })
+    names
+        .iter()
+        .enumerate()
+        .filter_map(|(i, n)| {
+            let keyword = n.as_deref()?;
+            if params.iter().any(|p| p.name == keyword) {
+                return None;
+            }
+            let meant = params
+                .iter()
+                .find(|p| p.aliases.contains(&keyword))
+                .map(|p| p.name.as_str())
+                .or_else(|| suggest::closest(keyword, params.iter().map(|p| p.name.as_str())));
+            let hint = meant
+                .map(|m| format!("; did you mean `{m}`?"))
+                .unwrap_or_default();
+            Some(Problem {
+                message: format!("`{}` has no argument `{keyword}`{hint}", builtin.name),
+                at: Culprit::Keyword(i),
+                help: Some(format!(
+                    "the arguments of `{}` are {}",
+                    builtin.name,
+                    listed.join(", ")
+                )),
+            })
+        })
+        .collect()
 }
 
 /// Every parameter of every form, each name once, in the order the forms give them.
@@ -184,6 +238,7 @@ fn match_signature(
     sig: &Signature,
     types: &[Type],
     names: &[Option<String>],
+    skip: &[bool],
 ) -> Result<Matched, Vec<Problem>> {
     let mut slots: Vec<Option<usize>> = vec![None; sig.params.len()];
     let mut rest = Vec::new();
@@ -191,6 +246,9 @@ fn match_signature(
     let mut position = 0;
     let mut overflow = false;
     for (i, ty) in types.iter().enumerate() {
+        if skip[i] {
+            continue;
+        }
         match &names[i] {
             None if position < sig.params.len() => {
                 slots[position] = Some(i);
@@ -201,6 +259,7 @@ fn match_signature(
                 Some(v) => problems.push(Problem {
                     message: format!("argument {} of `{name}` must be {v}, found {ty}", i + 1),
                     at: Culprit::Arg(i),
+                    help: exact(v).and_then(|v| cache_hint(ty, v)),
                 }),
                 None if !overflow => {
                     overflow = true;
@@ -212,6 +271,7 @@ fn match_signature(
                             types.len()
                         ),
                         at: Culprit::Arg(i),
+                        help: None,
                     });
                 }
                 None => {}
@@ -222,11 +282,13 @@ fn match_signature(
                         "argument `{keyword}` of `{name}` is given twice, by position and by keyword"
                     ),
                     at: Culprit::Arg(i),
+                    help: None,
                 }),
                 Some(p) => slots[p] = Some(i),
                 None => problems.push(Problem {
                     message: format!("this form of `{name}` has no argument `{keyword}`"),
                     at: Culprit::Keyword(i),
+                    help: None,
                 }),
             },
         }
@@ -239,6 +301,7 @@ fn match_signature(
                     param.name, param.ty
                 ),
                 at: Culprit::Call,
+                help: None,
             }),
             Some(i) if !param.ty.accepts(&types[i]) => problems.push(Problem {
                 message: format!(
@@ -246,6 +309,7 @@ fn match_signature(
                     param.name, param.ty, types[i]
                 ),
                 at: Culprit::Arg(i),
+                help: exact(&param.ty).and_then(|t| cache_hint(&types[i], t)),
             }),
             _ => {}
         }
@@ -254,6 +318,14 @@ fn match_signature(
         Ok((slots, rest))
     } else {
         Err(problems)
+    }
+}
+
+/// The one type a parameter takes, if it takes one.
+fn exact(ty: &ParamType) -> Option<&Type> {
+    match ty {
+        ParamType::Exact(t) => Some(t),
+        _ => None,
     }
 }
 

@@ -284,9 +284,20 @@ impl IntervalTape {
         self.ssa.roots.iter().map(|&r| iv[r as usize]).collect()
     }
 
+    /// Intervals of the roots over `region` as if every grid read held its outermost cells'
+    /// values in the half-cell border (`GridSource::range_held`).
+    pub fn ranges_held(&self, region: &Aabb) -> Vec<Interval> {
+        let iv = self.intervals_of(region, true);
+        self.ssa.roots.iter().map(|&r| iv[r as usize]).collect()
+    }
+
     /// The interval of every instruction over positions in `region`, by instruction index
     /// (what `prune` decides choices by).
     pub fn intervals(&self, region: &Aabb) -> Vec<Interval> {
+        self.intervals_of(region, false)
+    }
+
+    fn intervals_of(&self, region: &Aabb, held: bool) -> Vec<Interval> {
         let insts = &self.ssa.insts;
         let mut iv: Vec<Interval> = Vec::with_capacity(insts.len());
         let mut kernel_iv: Vec<Interval> = vec![ALL; self.kernel_outputs];
@@ -317,7 +328,7 @@ impl IntervalTape {
                     }
                     let (first, count) = self.outputs_of[i];
                     let out = &mut kernel_iv[first as usize..(first + count) as usize];
-                    kernel_ranges(k, &arg_iv[..args.len().min(MOST_KERNEL_ARGS)], out);
+                    kernel_ranges(k, &arg_iv[..args.len().min(MOST_KERNEL_ARGS)], held, out);
                     ALL
                 }
                 Inst::Output([k], index) => {
@@ -339,8 +350,9 @@ impl IntervalTape {
 /// Most arguments a kernel takes (the pseudo-inverse's nine matrix entries).
 const MOST_KERNEL_ARGS: usize = 9;
 
-/// The intervals of a kernel's outputs, into `out` (one per output, `ALL` where unknown).
-fn kernel_ranges(kernel: &Kernel, args: &[Interval], out: &mut [Interval]) {
+/// The intervals of a kernel's outputs, into `out` (one per output, `ALL` where unknown); grid
+/// reads as held reads when `held`.
+fn kernel_ranges(kernel: &Kernel, args: &[Interval], held: bool, out: &mut [Interval]) {
     match kernel {
         Kernel::Noise { kind, .. } => {
             let (lo, hi) = noise::value_range(*kind);
@@ -361,6 +373,8 @@ fn kernel_ranges(kernel: &Kernel, args: &[Interval], out: &mut [Interval]) {
                 !(grid.bounds().contains(region.min) && grid.bounds().contains(region.max));
             let within = if inside.is_empty() {
                 vec![]
+            } else if held {
+                grid.range_held(&inside, *interp)
             } else {
                 grid.range_read(&inside, *interp)
             };

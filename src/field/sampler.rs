@@ -230,6 +230,14 @@ impl FieldSampler for CompiledField {
             .map(|r| (r.lo, r.hi))
             .collect()
     }
+
+    fn range_held(&self, region: &Aabb) -> Vec<(f64, f64)> {
+        self.intervals
+            .ranges_held(region)
+            .into_iter()
+            .map(|r| (r.lo, r.hi))
+            .collect()
+    }
 }
 
 /// The grids that the graph under `roots` reads, each once, in the order first met.

@@ -335,6 +335,9 @@ impl Cache {
         let stats = profile::register(kind, &self.label);
         stats.add_instance(self.bricks.len() as u64);
         stats.add_resolved(self.bricks_filled() as u64, self.bricks_skipped() as u64);
+        if self.resolved.load(std::sync::atomic::Ordering::Acquire) > 0 {
+            stats.add_evaluated();
+        }
         stats.add_work(0, self.bytes());
         self.profile = Some(stats);
         self

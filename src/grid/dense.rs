@@ -199,6 +199,7 @@ impl DenseGrid {
             &lattice,
             region,
             Interp::Cubic,
+            false,
             &self.background,
             BLOCK,
             |[bx, by, bz], _, samples| {

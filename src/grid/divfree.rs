@@ -186,6 +186,7 @@ impl DivergenceFree {
                 .add_work(started.elapsed().as_nanos() as u64, grid.bytes());
             let cells = self.domain.resolution.unwrap_or([1, 1, 1]);
             self.profile.add_resolved(bricks_of(cells), 0);
+            self.profile.add_evaluated();
         }
         result
     }

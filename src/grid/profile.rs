@@ -19,6 +19,7 @@ use std::sync::{Arc, Mutex, MutexGuard};
 #[derive(Debug, Default)]
 pub struct GridStats {
     instances: AtomicU64,
+    evaluated: AtomicU64,
     bricks_total: AtomicU64,
     bricks_filled: AtomicU64,
     bricks_skipped: AtomicU64,
@@ -32,6 +33,13 @@ impl GridStats {
     pub fn add_instance(&self, bricks: u64) {
         self.instances.fetch_add(1, Ordering::Relaxed);
         self.bricks_total.fetch_add(bricks, Ordering::Relaxed);
+    }
+
+    /// One of the grids made here was evaluated: its first brick filled or skipped, its solve
+    /// run, or its work done when it was made. Called once per grid, so the profile counts
+    /// the grids a run made and never used, not the lines.
+    pub fn add_evaluated(&self) {
+        self.evaluated.fetch_add(1, Ordering::Relaxed);
     }
 
     /// One brick was computed, taking `nanos` and keeping `bytes`.
@@ -75,6 +83,7 @@ impl GridStats {
             kind: kind.to_string(),
             label: label.to_string(),
             instances: self.instances.load(Ordering::Relaxed),
+            evaluated: self.evaluated.load(Ordering::Relaxed),
             bricks_total: self.bricks_total.load(Ordering::Relaxed),
             bricks_filled: self.bricks_filled.load(Ordering::Relaxed),
             bricks_skipped: self.bricks_skipped.load(Ordering::Relaxed),
@@ -94,6 +103,8 @@ pub struct ProfileEntry {
     pub label: String,
     /// Grids (or solves) made.
     pub instances: u64,
+    /// Of those, the grids evaluated at all.
+    pub evaluated: u64,
     pub bricks_total: u64,
     /// Bricks computed.
     pub bricks_filled: u64,
@@ -283,6 +294,7 @@ mod tests {
                 kind: "cachewrite".into(),
                 label: "scene.felt:12".into(),
                 instances: 1,
+                evaluated: 1,
                 bricks_total: 4096,
                 bricks_filled: 517,
                 bricks_skipped: 80,
@@ -294,6 +306,7 @@ mod tests {
                 kind: "fftdivfree".into(),
                 label: "fluid.felt:40".into(),
                 instances: 12,
+                evaluated: 12,
                 bricks_total: 0,
                 bricks_filled: 0,
                 bricks_skipped: 0,

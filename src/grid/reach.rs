@@ -61,6 +61,12 @@ impl Reach {
 /// What `region` reads of a grid on `lattice` through `interp`; `None` when it misses the
 /// domain box.
 pub fn reach(lattice: &Lattice, region: &Aabb, interp: Interp) -> Option<Reach> {
+    reach_of(lattice, region, interp, false)
+}
+
+/// As [`reach`], for reads that hold the outermost cells' values in the half-cell border when
+/// `held` (`outside = "hold"`): a linear read's weights are then convex there too.
+pub fn reach_of(lattice: &Lattice, region: &Aabb, interp: Interp, held: bool) -> Option<Reach> {
     let (lo, hi, leaves) = index_box(lattice, region);
     let mut first = [0usize; 3];
     let mut last = [0usize; 3];
@@ -87,7 +93,7 @@ pub fn reach(lattice: &Lattice, region: &Aabb, interp: Interp) -> Option<Reach> 
                 last[a] = (below(high) + 1).min(cells - 1);
             }
         }
-        spread *= if cells == 1 {
+        spread *= if cells == 1 || (held && interp == Interp::Linear && !inside) {
             1.0
         } else if !inside {
             BORDER_WEIGHT_BOUND
@@ -138,11 +144,13 @@ pub fn widen(samples: Vec<(f64, f64)>, background: &[f64], reach: &Reach) -> Vec
 /// The range of a grid read over `region`: the blocks of `block` cells per side that its
 /// stencils reach, each block's per-component extremes merged by `merge_block` (given the
 /// block's coordinates, the first and last cell the region reads, and the running extremes),
-/// widened as [`widen`] says. Outside the domain, or for an empty region, the background.
+/// widened as [`widen`] says (for held reads when `held`, see [`reach_of`]). Outside the domain,
+/// or for an empty region, the background.
 pub fn range(
     lattice: &Lattice,
     region: &Aabb,
     interp: Interp,
+    held: bool,
     background: &[f64],
     block: usize,
     mut merge_block: impl FnMut([usize; 3], &Reach, &mut [(f64, f64)]),
@@ -151,7 +159,7 @@ pub fn range(
     if region.is_empty() {
         return flat;
     }
-    let Some(reach) = reach(lattice, region, interp) else {
+    let Some(reach) = reach_of(lattice, region, interp, held) else {
         return flat;
     };
     let mut samples = vec![(f64::INFINITY, f64::NEG_INFINITY); background.len()];
@@ -162,5 +170,18 @@ pub fn range(
             }
         }
     }
-    widen(samples, background, &reach)
+    let lows: Vec<f64> = samples.iter().map(|s| s.0).collect();
+    let mut ranges = widen(samples, background, &reach);
+    if held && reach.spread == 1.0 {
+        // Convex weights of samples that are all at least zero give at least zero in floating
+        // point too (every product and partial sum is), so the rounding allowance need not
+        // reach below zero: a held read of a non-negative cache is provably non-negative.
+        for ((range, low), &b) in ranges.iter_mut().zip(lows).zip(background) {
+            if low >= 0.0 {
+                let floor = if reach.leaves { b.min(0.0) } else { 0.0 };
+                range.0 = range.0.max(floor);
+            }
+        }
+    }
+    ranges
 }

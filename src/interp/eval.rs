@@ -219,7 +219,9 @@ impl Interpreter {
             .collect();
         let (form, slots, rest) = match registry::resolve(builtin, &types, &names) {
             Resolution::Match { form, slots, rest } => (form, slots, rest),
-            Resolution::Mismatch { message, at, help } => {
+            Resolution::Mismatch {
+                message, at, help, ..
+            } => {
                 let mut f = Failure::new(message);
                 f.help = help;
                 return Err(self.error(at.span(args, span), f));

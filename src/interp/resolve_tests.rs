@@ -10,7 +10,9 @@ fn mismatch(builtin: &str, types: &[Type], names: &[Option<&str>]) -> (String, C
     let builtin = registry().get(builtin).unwrap();
     let names: Vec<Option<String>> = names.iter().map(|n| n.map(String::from)).collect();
     match resolve(builtin, types, &names) {
-        Resolution::Mismatch { message, at, help } => (message, at, help.unwrap_or_default()),
+        Resolution::Mismatch {
+            message, at, help, ..
+        } => (message, at, help.unwrap_or_default()),
         Resolution::Match { .. } => panic!("resolved"),
     }
 }

@@ -129,6 +129,7 @@ impl<'a> Illumination<'a> {
                     };
                     grids.push(light_columns(density, light, &domain, method, limit)?);
                     stats.add_instance(0);
+                    stats.add_evaluated();
                     stats.add_work(
                         started.elapsed().as_nanos() as u64,
                         (domain.cell_count() * 4) as u64,

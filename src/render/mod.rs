@@ -87,6 +87,8 @@ pub struct RenderStats {
     /// Seconds spent on shadow grids and on the march.
     pub shadow_seconds: f64,
     pub march_seconds: f64,
+    /// Whether the density reads a grid (a cache read's `outside` can then matter).
+    pub density_reads_grids: bool,
 }
 
 /// A render's warning for the script author: what went wrong, and what might fix it.
@@ -137,6 +139,11 @@ impl RenderStats {
             let help = if counts.non_finite > 0 {
                 "a division by a field that is zero somewhere gives infinities or NaN; guard it \
                  with select or max"
+            } else if name == "density" && self.density_reads_grids {
+                "negative values have no meaning here; a cache read extrapolates linearly in the \
+                 half cell inside its faces, so a steep density there reads below zero, and \
+                 advection carries that into the next cache: read caches with \
+                 outside = \"hold\", or say what the density should be with max(field, 0)"
             } else {
                 "negative values have no meaning here; say what they should be with \
                  max(field, 0) or clamp"
@@ -287,6 +294,22 @@ pub fn render_with_stats(
         }
         stats.march.merge(&tile.stats);
     }
+    let m = &mut stats.march;
+    for (counts, field) in [
+        (&mut m.density, Some(scene.density)),
+        (&mut m.color, scene.color),
+        (&mut m.emission, scene.emission),
+    ] {
+        if let Some(field) = field
+            && counts.negative > 0
+        {
+            // A cache read extrapolates linearly in the half cell inside each face, so a
+            // cache whose cells are all at least zero can still read below zero there; the
+            // clamp to zero is then the right reading, not a mistake to warn about.
+            counts.negative_only_at_faces = field.range_held(&bounds).iter().all(|r| r.0 >= 0.0);
+        }
+    }
+    stats.density_reads_grids = !scene.density.grids().is_empty();
     Ok((image, stats))
 }
 

@@ -52,6 +52,10 @@ pub struct InputCounts {
     pub negative: u64,
     /// Where the first non-finite sample was, in tile order (the same for any thread count).
     pub first_non_finite: Option<DVec3>,
+    /// Whether the negative samples are all the work of grid reads extrapolating in the
+    /// half-cell border inside their faces: the field read with those borders held is
+    /// provably non-negative over the render box (the render decides this after the march).
+    pub negative_only_at_faces: bool,
 }
 
 impl InputCounts {
@@ -64,9 +68,10 @@ impl InputCounts {
         }
     }
 
-    /// Nothing to report.
+    /// Nothing to report: no unusable sample, or only negatives that the faces of the grids
+    /// read made from samples that are all at least zero, which the clamp to zero puts right.
     pub fn is_clean(&self) -> bool {
-        self.non_finite == 0 && self.negative == 0
+        self.non_finite == 0 && (self.negative == 0 || self.negative_only_at_faces)
     }
 }
 

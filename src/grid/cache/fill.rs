@@ -358,7 +358,14 @@ impl Cache {
         if count == 0 {
             return;
         }
-        if self.resolved.fetch_add(count, Ordering::AcqRel) + count == self.bricks.len() {
+        let before = self.resolved.fetch_add(count, Ordering::AcqRel);
+        if before == 0
+            && let Some(stats) = &self.profile
+        {
+            // The first brick of this cache: one more grid evaluated at its line.
+            stats.add_evaluated();
+        }
+        if before + count == self.bricks.len() {
             let source = lock(&self.source).take();
             drop(source);
         }

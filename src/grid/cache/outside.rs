@@ -98,6 +98,13 @@ impl GridSource for OutsideRead {
         }
     }
 
+    fn range_held(&self, region: &Aabb, interp: Interp) -> Vec<(f64, f64)> {
+        match self.outside {
+            Outside::Extrapolate => self.range(region),
+            Outside::Hold => self.cache.range_of(region, interp, true),
+        }
+    }
+
     fn lattice(&self) -> Option<Lattice> {
         self.cache.lattice().map(|l| Lattice {
             extrapolates: self.outside == Outside::Extrapolate,

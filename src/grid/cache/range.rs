@@ -25,13 +25,15 @@ const EXACT_RANGE_CELLS: usize = 216;
 
 impl Cache {
     /// What the interpolant of reads through `interp` can reach over `region`, filling the
-    /// bricks it needs on the calling thread.
-    pub(super) fn range_of(&self, region: &Aabb, interp: Interp) -> Vec<(f64, f64)> {
+    /// bricks it needs on the calling thread; for reads that hold the outermost cells in the
+    /// half-cell border when `held`.
+    pub(super) fn range_of(&self, region: &Aabb, interp: Interp, held: bool) -> Vec<(f64, f64)> {
         let lattice = self.domain.lattice();
         reach::range(
             &lattice,
             region,
             interp,
+            held,
             &self.background,
             BRICK,
             |b, reach, samples| {

@@ -534,11 +534,17 @@ impl GridSource for Cache {
     /// Fills the bricks whose cells the interpolant reads inside `region`, on the calling
     /// thread (no rayon: this may run inside another cache's brick fill).
     fn range(&self, region: &Aabb) -> Vec<(f64, f64)> {
-        self.range_of(region, Interp::Cubic)
+        self.range_of(region, Interp::Cubic, false)
     }
 
     /// As `range`, for reads through `interp` only: a linear read reaches fewer cells.
     fn range_read(&self, region: &Aabb, interp: Interp) -> Vec<(f64, f64)> {
-        self.range_of(region, interp)
+        self.range_of(region, interp, false)
+    }
+
+    /// As `range_read`, as if the read held its outermost cells in the half-cell border: for a
+    /// linear read, the range of the samples it reads.
+    fn range_held(&self, region: &Aabb, interp: Interp) -> Vec<(f64, f64)> {
+        self.range_of(region, interp, true)
     }
 }

@@ -61,6 +61,7 @@ pub fn register(r: &mut Registry) {
             let state = CloudState::initial((**domain).clone(), resolution, seed, &regions.probabilities);
             let stats = profile::register("cloudsim", &label);
             stats.add_instance(0);
+            stats.add_evaluated();
             stats.add_work(started.elapsed().as_nanos() as u64, state_bytes(&state));
             Ok(Value::CloudSim(Rc::new(CloudVar { state, regions: None })))
         },
@@ -190,6 +191,7 @@ fn cloudstep(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
         let from = next.as_ref().unwrap_or(state);
         let stepped = from.step(&regions.probabilities, &wind);
         stats.add_instance(0);
+        stats.add_evaluated();
         stats.add_work(started.elapsed().as_nanos() as u64, 0);
         next = Some(stepped);
     }
@@ -269,6 +271,7 @@ fn sample_regions(
         let bytes = (hum.bytes() + act.bytes() + ext.bytes()) as u64;
         let stats = profile::register("cloudregion", label);
         stats.add_instance(0);
+        stats.add_evaluated();
         stats.add_work(started.elapsed().as_nanos() as u64, bytes);
         Probabilities { hum, act, ext }
     };

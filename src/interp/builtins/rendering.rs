@@ -349,6 +349,7 @@ fn run_render(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
     }
     let stats = crate::grid::profile::register("render", &label);
     stats.add_instance(0);
+    stats.add_evaluated();
     stats.add_work(
         started.elapsed().as_nanos() as u64,
         (image.width * image.height * 16) as u64,
