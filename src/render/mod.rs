@@ -22,6 +22,7 @@ pub mod image;
 pub mod light;
 mod lighting;
 mod march;
+pub mod path;
 pub mod phase;
 pub mod progress;
 pub mod settings;
@@ -40,7 +41,7 @@ pub use camera::Camera;
 pub use image::{ExrOptions, HeaderValue, Image, write_image, write_image_with};
 pub use light::{DistantLight, Light, PointLight};
 pub use phase::Phase;
-pub use settings::{Adaptive, Aovs, MultiScatter, RenderSettings, Shadows};
+pub use settings::{Adaptive, Aovs, Integrator, MultiScatter, RenderSettings, Shadows};
 pub use tile::{InputCounts, MarchStats};
 pub use transmittance::{TransmissivityMethod, transmissivity};
 
@@ -89,6 +90,10 @@ pub struct RenderStats {
     pub march_seconds: f64,
     /// Whether the density reads a grid (a cache read's `outside` can then matter).
     pub density_reads_grids: bool,
+    /// Path tracer: density samples above the majorant of their cell (where the tracking is
+    /// biased), and where the first was.
+    pub above_majorant: u64,
+    pub first_above_majorant: Option<glam::DVec3>,
 }
 
 /// A render's warning for the script author: what went wrong, and what might fix it.
@@ -150,6 +155,18 @@ impl RenderStats {
             };
             warnings.push(RenderWarning { message, help });
         }
+        if let Some(at) = self.first_above_majorant {
+            warnings.push(RenderWarning {
+                message: format!(
+                    "render: the density exceeded its path-tracing bound at {} samples, the \
+                     first at {}; the image is biased there",
+                    grouped(self.above_majorant),
+                    vector_text(at)
+                ),
+                help: "the density's interval bounds are wrong somewhere: render with the march \
+                       to compare, and report the field",
+            });
+        }
         if m.bad_pixels > 0 {
             warnings.push(RenderWarning {
                 message: format!(
@@ -187,6 +204,20 @@ pub fn render_with_stats(
         }
     }
     let bounds = march_box(scene, settings)?;
+    if settings.integrator == Integrator::Path {
+        let channels = path::aov_names(settings).len();
+        let bytes = settings.width as f64 * settings.height as f64 * (16.0 + 4.0 * channels as f64);
+        let _framebuffer = crate::budget::reserve(
+            2.0 * bytes,
+            &format!(
+                "a {} x {} image with {} channels (its rows and the image)",
+                settings.width,
+                settings.height,
+                4 + channels
+            ),
+        )?;
+        return path::render(scene, settings, bounds);
+    }
     let step = settings.step.unwrap_or(bounds.size().max_element() / 256.0);
     let smallest = settings.adaptive.map_or(step, |a| a.min_step.min(step));
     let diagonal = bounds.size().length();

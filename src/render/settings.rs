@@ -91,6 +91,20 @@ impl Default for MultiScatter {
     }
 }
 
+/// Which integrator turns the scene into pixels.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub enum Integrator {
+    /// The ray marcher: exact single scattering, artistic multiple scattering (`march`).
+    #[default]
+    March,
+    /// The unbiased volumetric path tracer (`path`): delta tracking, ratio-tracked shadow
+    /// rays, every order of scattering up to `bounces`, the shadowed `sky`.
+    Path,
+}
+
+/// The most scattering events a path-traced path may have.
+pub const MAX_BOUNCES: u32 = 4096;
+
 /// Extra image channels besides RGBA.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct Aovs {
@@ -102,6 +116,9 @@ pub struct Aovs {
     pub emission: bool,
     /// `light0.R/G/B`, `light1.R/G/B`, ...: the part scattered from each light.
     pub lights: bool,
+    /// `variance.R/G/B` (path tracer only): the variance of each pixel's mean colour, the
+    /// sample variance of its `spp` path estimates divided by `spp`.
+    pub variance: bool,
 }
 
 /// Everything a render needs besides the scene.
@@ -140,6 +157,13 @@ pub struct RenderSettings {
     /// The box to march; `None` takes the density's bounds.
     pub bounds: Option<Aabb>,
     pub aovs: Aovs,
+    pub integrator: Integrator,
+    /// Path tracer: the most scattering events along a path (0 shows emission alone, 1 is
+    /// single scattering).
+    pub bounces: u32,
+    /// Path tracer: radiance of a uniform sky around the render box, seen by every path that
+    /// leaves the box after scattering (so it is shadowed by the medium).
+    pub sky: DVec3,
 }
 
 impl Default for RenderSettings {
@@ -161,6 +185,9 @@ impl Default for RenderSettings {
             shadows: Shadows::default(),
             bounds: None,
             aovs: Aovs::default(),
+            integrator: Integrator::March,
+            bounces: 64,
+            sky: DVec3::ZERO,
         }
     }
 }
@@ -278,6 +305,77 @@ impl RenderSettings {
                 "render bounds must be a finite box with positive size, got {} to {}",
                 b.min, b.max
             )));
+        }
+        self.validate_integrator()
+    }
+
+    /// The options that belong to one integrator only are refused by the other, so a script
+    /// never sets a control that silently does nothing.
+    fn validate_integrator(&self) -> Outcome<()> {
+        if self.bounces > MAX_BOUNCES {
+            return Err(Failure::new(format!(
+                "bounces must be between 0 and {MAX_BOUNCES}, got {}",
+                self.bounces
+            )));
+        }
+        if !self.sky.is_finite() || self.sky.min_element() < 0.0 {
+            return Err(Failure::new(format!(
+                "sky must be finite and non-negative, got {}",
+                self.sky
+            ))
+            .with_help("sky is the radiance of a uniform sky, per colour channel"));
+        }
+        match self.integrator {
+            Integrator::March => {
+                if self.sky != DVec3::ZERO {
+                    return Err(Failure::new("sky is the path tracer's shadowed sky light")
+                        .with_help("add integrator = \"path\", or light the march with ambient"));
+                }
+                if self.aovs.variance {
+                    return Err(Failure::new("the variance AOV belongs to the path tracer")
+                        .with_help("add integrator = \"path\""));
+                }
+            }
+            Integrator::Path => {
+                let march_only = [
+                    (
+                        "ambient",
+                        self.ambient != DVec3::ZERO,
+                        "use sky = (r, g, b): the path tracer shadows it",
+                    ),
+                    (
+                        "multiscatter",
+                        self.multiscatter.is_some(),
+                        "the path tracer scatters light as often as bounces allows",
+                    ),
+                    (
+                        "powder",
+                        self.powder.is_some(),
+                        "the path tracer's multiple scattering brightens and darkens by itself",
+                    ),
+                    (
+                        "adaptive",
+                        self.adaptive.is_some(),
+                        "the path tracer takes no steps: leave out adaptive",
+                    ),
+                    (
+                        "the depth, transmittance, emission and lights AOVs",
+                        self.aovs.depth
+                            || self.aovs.transmittance
+                            || self.aovs.emission
+                            || self.aovs.lights,
+                        "the path tracer writes the variance AOV",
+                    ),
+                ];
+                for (what, given, help) in march_only {
+                    if given {
+                        return Err(Failure::new(format!(
+                            "{what} belongs to the march, not integrator = \"path\""
+                        ))
+                        .with_help(help));
+                    }
+                }
+            }
         }
         Ok(())
     }

@@ -12,7 +12,7 @@ use crate::grid::cache::Cache;
 use crate::interp::Interpreter;
 use crate::interp::registry::{Args, Registry};
 use crate::interp::value::Value;
-use crate::render::settings::{Adaptive, Aovs, MultiScatter, Shadows};
+use crate::render::settings::{Adaptive, Aovs, Integrator, MAX_BOUNCES, MultiScatter, Shadows};
 use crate::render::tonemap::ToneMap;
 use crate::render::transmittance::TransmissivityMethod;
 use crate::render::{self, Camera, Light, Phase, RenderSettings, Scene};
@@ -31,7 +31,8 @@ macro_rules! render_form {
             " kappa?, float step?, int width?, int height?, int spp?, int seed?, ",
             "domain bounds?, float threshold?, float phase?, vector phase2?, scalarfield holdout?, ",
             "vector ambient?, int multiscatter?, bool adaptive?, string[] aovs?, string shadows?, ",
-            "float powder?, float shadowcell?, float albedo?, string tonemap?, float brightness?, float gamma?, bool exr_half?) -> void"
+            "float powder?, float shadowcell?, float albedo?, string tonemap?, float brightness?, float gamma?, bool exr_half?, ",
+            "string integrator?, int bounces?, vector sky?) -> void"
         )
     };
 }
@@ -93,11 +94,12 @@ pub fn register(r: &mut Registry) {
         &["cache", "march", "sweep"],
     );
     r.choices("render", "tonemap", "tone map", &["max1", "log"]);
+    r.choices("render", "integrator", "integrator", &["march", "path"]);
     r.choices(
         "render",
         "aovs",
         "AOV",
-        &["depth", "transmittance", "emission", "lights"],
+        &["depth", "transmittance", "emission", "lights", "variance"],
     );
     // What other renderers call these options, so a TD's habit finds felt's word.
     r.aliases("render", "spp", &["samples", "pixelsamples", "aa_samples"]);
@@ -241,9 +243,11 @@ fn run_render(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
                 "transmittance" => aovs.transmittance = true,
                 "emission" => aovs.emission = true,
                 "lights" => aovs.lights = true,
+                "variance" => aovs.variance = true,
                 other => {
                     return Err(Failure::new(format!("unknown AOV \"{other}\"")).with_help(
-                        "the AOVs are \"depth\", \"transmittance\", \"emission\" and \"lights\"",
+                        "the AOVs are \"depth\", \"transmittance\", \"emission\", \"lights\" \
+                         and, with integrator = \"path\", \"variance\"",
                     ));
                 }
             }
@@ -279,6 +283,33 @@ fn run_render(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
             cell_size: Some(cell),
             method,
         };
+    }
+    if let Some(name) = a.opt("integrator") {
+        settings.integrator = match name.as_str()? {
+            "march" => Integrator::March,
+            "path" => Integrator::Path,
+            other => {
+                return Err(Failure::new(format!(
+                    "integrator must be \"march\" or \"path\", found \"{other}\""
+                )));
+            }
+        };
+    }
+    if let Some(bounces) = a.opt("bounces") {
+        let bounces = bounces.as_int()?;
+        if !(0..=i64::from(MAX_BOUNCES)).contains(&bounces) {
+            return Err(Failure::new(format!(
+                "bounces must be between 0 and {MAX_BOUNCES}, found {bounces}"
+            )));
+        }
+        settings.bounces = bounces as u32;
+    }
+    if let Some(sky) = opt_vector(&a, "sky")? {
+        settings.sky = sky;
+    }
+    if settings.integrator == Integrator::March && (a.given("bounces") || a.given("sky")) {
+        return Err(Failure::new("bounces and sky belong to the path tracer")
+            .with_help("add integrator = \"path\""));
     }
     let tonemap = match a.opt("tonemap") {
         Some(name) => Some(ToneMap::parse(
