@@ -137,9 +137,10 @@ pub fn register(r: &mut Registry) {
     );
 }
 
-/// The most steps one `cloudstep` call takes. The source's sequences run a few hundred steps,
-/// and a million steps of even a 32³ automaton take hours: a larger count is a typo or an
-/// overflowed computation, better refused at once than left running for years.
+/// The most steps one `cloudstep` call takes. The source's sequences run a few hundred steps;
+/// a million is over eleven hours of footage at a step a frame and 24 frames a second, so a
+/// larger count is a typo or an overflowed computation, refused at once rather than left
+/// running for as long as 9.2e18 steps would take.
 const MAX_STEPS: i64 = 1_000_000;
 
 fn cloudstep(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
