@@ -15,7 +15,9 @@
 
 mod adaptive;
 pub mod band;
+pub mod blackbody;
 pub mod camera;
+pub mod cie1931;
 pub mod exr_header;
 pub mod exr_order;
 pub mod image;
