@@ -125,7 +125,7 @@ fn rec709_matrix_is_the_one_derived_from_the_primaries() {
 /// The field table against the exact integration, at temperatures between its nodes over the
 /// whole glowing range: the worst error is the figure the module documentation quotes.
 #[test]
-fn table_is_within_a_millionth_of_the_exact_colour() {
+fn table_is_within_1e5_of_the_exact_colour() {
     let (normal, absolute) = (BlackbodyTable::shared(true), BlackbodyTable::shared(false));
     let (mut worst, mut worst_relative) = (0.0f64, 0.0f64);
     let mut t = COLDEST;
@@ -137,9 +137,9 @@ fn table_is_within_a_millionth_of_the_exact_colour() {
         worst_relative = worst_relative.max(relative);
         t *= 1.000_37;
     }
-    assert!(worst < 1e-6, "largest error {worst}");
+    assert!(worst < 1e-5, "largest error {worst}");
     assert!(
-        worst_relative < 1e-6,
+        worst_relative < 1e-5,
         "largest relative error {worst_relative}"
     );
 }
