@@ -1,10 +1,12 @@
 //! The look of a render: `blackbody` from scripts, on numbers and on fields, checked against
 //! colour-science (values recorded here, and opt-in with `FELT_PEER_TESTS=1` against the
-//! package itself).
+//! package itself); the PNG views against an independent evaluation.
 
 mod common;
 
 use common::{lines_of, numbers, run_source};
+use felt::render::view;
+use glam::DVec3;
 
 /// colour-science 0.4.7: `colour.sd_blackbody(T)` on 360–830 nm at 1 nm, summed against its
 /// 1 nm CIE 1931 table, taken to BT.709 and divided by Y.
@@ -125,4 +127,65 @@ fn blackbody_chromaticity_matches_colour_science() {
             xy[1]
         );
     }
+}
+
+fn grey(v: f64) -> f64 {
+    view::agx(DVec3::splat(v)).x
+}
+
+/// Values of an independent numpy evaluation of three.js's `AgXToneMapping` (its own
+/// 4-digit Rec.709↔Rec.2020 matrices), display-linear, for greys.
+const AGX_GREYS: [(f64, f64); 10] = [
+    (0.001, 0.000106),
+    (0.01, 0.005996),
+    (0.05, 0.061383),
+    (0.18, 0.214549),
+    (0.5, 0.425197),
+    (1.0, 0.590229),
+    (2.0, 0.743395),
+    (4.0, 0.861016),
+    (16.0, 0.995212),
+    (100.0, 0.996978),
+];
+
+#[test]
+fn agx_view_matches_an_independent_evaluation() {
+    for (scene, shown) in AGX_GREYS {
+        let ours = grey(scene);
+        assert!(
+            (ours - shown).abs() < 0.5 / 255.0,
+            "{scene}: {ours} vs {shown}"
+        );
+    }
+    for (scene, shown) in [
+        ([1.0, 0.2, 0.05], [0.655102, 0.265218, 0.137397]),
+        ([4.6, 0.04, -0.09], [1.0, 0.415314, 0.256163]),
+    ] {
+        let ours = view::agx(DVec3::from_array(scene));
+        let error = (ours - DVec3::from_array(shown)).abs().max_element();
+        assert!(error < 1.0 / 255.0, "{scene:?}: {ours} vs {shown:?}");
+    }
+}
+
+#[test]
+fn views_are_monotone_and_keep_black() {
+    assert_eq!(view::View::Agx.apply([0.0; 4]), [0.0; 4]);
+    assert_eq!(
+        view::View::Standard.apply([0.3, 2.0, -1.0, 0.5]),
+        [0.3, 2.0, -1.0, 0.5]
+    );
+    let mut last = -1.0;
+    for k in 0..=4000 {
+        let v = (k as f64 / 4000.0 * 20.0 - 14.0).exp2();
+        let shown = grey(v);
+        assert!(shown >= last, "not monotone at {v}");
+        last = shown;
+    }
+    assert!(grey(1e6) > 0.99);
+}
+
+#[test]
+fn unknown_views_are_errors() {
+    assert!(view::View::parse("filmic").is_err() && view::View::parse("AgX").is_err());
+    assert_eq!(view::View::parse("agx").ok(), Some(view::View::Agx));
 }

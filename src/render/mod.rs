@@ -32,6 +32,7 @@ mod sweep;
 mod tile;
 pub mod tonemap;
 pub mod transmittance;
+pub mod view;
 
 #[cfg(test)]
 mod testing;
@@ -39,7 +40,9 @@ mod testing;
 mod tests;
 
 pub use camera::Camera;
-pub use image::{ExrOptions, HeaderValue, Image, write_image, write_image_with};
+pub use image::{
+    ExrOptions, HeaderValue, Image, write_image, write_image_viewed, write_image_with,
+};
 pub use light::{DistantLight, Light, PointLight};
 pub use phase::Phase;
 pub use settings::{Adaptive, Aovs, MultiScatter, RenderSettings, Shadows};
