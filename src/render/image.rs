@@ -7,11 +7,13 @@
 //! clipped to [0, 1]; the alpha is raised where needed to at least the largest colour channel
 //! (emission in a thin medium can be brighter than it is opaque); the colour is divided by that
 //! alpha (PNG stores straight colour) and encoded with the sRGB curve. Composited over black
-//! such a PNG shows exactly the clipped premultiplied colour. Files are written
+//! such a PNG shows exactly the clipped premultiplied colour; another view (`render::view`)
+//! maps the colour first. Files are written
 //! through `output::write_atomically`, so a crash or a full disk never leaves a half-written
 //! image under the requested name.
 
 use crate::failure::{Failure, Outcome};
+use crate::render::view::View;
 use std::collections::HashSet;
 use std::io::{BufWriter, Write};
 use std::path::Path;
@@ -110,6 +112,16 @@ pub fn write_image(path: &Path, image: &Image) -> Outcome<()> {
 /// `write_image` with OpenEXR options (a PNG ignores them). Returns how many samples were
 /// above the largest half float and written as it.
 pub fn write_image_with(path: &Path, image: &Image, options: &ExrOptions) -> Outcome<u64> {
+    write_image_viewed(path, image, options, View::Standard)
+}
+
+/// `write_image_with`, a PNG shown through `view` (an EXR stays scene-linear).
+pub fn write_image_viewed(
+    path: &Path,
+    image: &Image,
+    options: &ExrOptions,
+    view: View,
+) -> Outcome<u64> {
     // The writers lay the channels out again before encoding them.
     let channels = 4 + image.aovs.len();
     let _copy = crate::budget::reserve(
@@ -135,7 +147,7 @@ pub fn write_image_with(path: &Path, image: &Image, options: &ExrOptions) -> Out
         Some("exr") => atomically(path, |file| {
             write_exr(file, image, options, None, &mut clamped)
         })?,
-        Some("png") => atomically(path, |file| write_png(file, image))?,
+        Some("png") => atomically(path, |file| write_png(file, image, view))?,
         _ => Err(Failure::new(format!(
             "cannot tell the image format of '{}'",
             path.display()
@@ -275,7 +287,7 @@ pub fn preview_pixel(rgba: [f32; 4]) -> [u8; 4] {
     ]
 }
 
-fn write_png(file: &mut std::fs::File, image: &Image) -> Result<(), String> {
+fn write_png(file: &mut std::fs::File, image: &Image, view: View) -> Result<(), String> {
     let (width, height) = (
         u32::try_from(image.width).map_err(|e| e.to_string())?,
         u32::try_from(image.height).map_err(|e| e.to_string())?,
@@ -286,7 +298,11 @@ fn write_png(file: &mut std::fs::File, image: &Image) -> Result<(), String> {
     encoder.set_depth(png::BitDepth::Eight);
     encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
     let mut writer = encoder.write_header().map_err(|e| e.to_string())?;
-    let bytes: Vec<u8> = image.rgba.iter().flat_map(|p| preview_pixel(*p)).collect();
+    let bytes: Vec<u8> = image
+        .rgba
+        .iter()
+        .flat_map(|p| preview_pixel(view.apply(*p)))
+        .collect();
     writer.write_image_data(&bytes).map_err(|e| e.to_string())?;
     writer.finish().map_err(|e| e.to_string())?;
     buffer.flush().map_err(|e| e.to_string())

@@ -15,7 +15,9 @@
 
 mod adaptive;
 pub mod band;
+pub mod blackbody;
 pub mod camera;
+pub mod cie1931;
 pub mod exr_header;
 pub mod exr_order;
 pub mod image;
@@ -31,6 +33,7 @@ mod sweep;
 mod tile;
 pub mod tonemap;
 pub mod transmittance;
+pub mod view;
 
 #[cfg(test)]
 mod testing;
@@ -38,7 +41,9 @@ mod testing;
 mod tests;
 
 pub use camera::Camera;
-pub use image::{ExrOptions, HeaderValue, Image, write_image, write_image_with};
+pub use image::{
+    ExrOptions, HeaderValue, Image, write_image, write_image_viewed, write_image_with,
+};
 pub use light::{DistantLight, Light, PointLight};
 pub use phase::Phase;
 pub use settings::{Adaptive, Aovs, Integrator, MultiScatter, RenderSettings, Shadows};

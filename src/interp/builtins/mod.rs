@@ -3,6 +3,7 @@
 
 mod attributes;
 pub mod clouds;
+mod colour;
 mod core;
 mod fields;
 pub mod format;
@@ -30,4 +31,5 @@ pub fn register_all(r: &mut Registry) {
     simulation::register(r);
     particles::register(r);
     clouds::register(r);
+    colour::register(r);
 }

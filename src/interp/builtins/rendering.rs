@@ -15,6 +15,7 @@ use crate::interp::value::Value;
 use crate::render::settings::{Adaptive, Aovs, Integrator, MAX_BOUNCES, MultiScatter, Shadows};
 use crate::render::tonemap::ToneMap;
 use crate::render::transmittance::TransmissivityMethod;
+use crate::render::view::View;
 use crate::render::{self, Camera, Light, Phase, RenderSettings, Scene};
 use crate::sample::GridSource;
 use glam::DVec3;
@@ -32,7 +33,7 @@ macro_rules! render_form {
             "domain bounds?, float threshold?, float phase?, vector phase2?, scalarfield holdout?, ",
             "vector ambient?, int multiscatter?, bool adaptive?, string[] aovs?, string shadows?, ",
             "float powder?, float shadowcell?, float albedo?, string tonemap?, float brightness?, float gamma?, bool exr_half?, ",
-            "string integrator?, int bounces?, vector sky?) -> void"
+            "string integrator?, int bounces?, vector sky?, string view?) -> void"
         )
     };
 }
@@ -84,7 +85,8 @@ pub fn register(r: &mut Registry) {
         &[render_form!("float"), render_form!("vector")],
         "raymarches density (lit by lights, coloured by color, glowing with emission) into an \
          OpenEXR image, or a PNG preview when path ends in .png; tonemap = \"max1\" or \"log\" \
-         (brightness, gamma) compresses emission-only particle renders",
+         (brightness, gamma) compresses emission-only particle renders; view = \"standard\" \
+         (clip at 1, the default) or \"agx\" (highlights roll off to white) is how a PNG shows it",
         run_render,
     );
     r.choices(
@@ -95,6 +97,7 @@ pub fn register(r: &mut Registry) {
     );
     r.choices("render", "tonemap", "tone map", &["max1", "log"]);
     r.choices("render", "integrator", "integrator", &["march", "path"]);
+    r.choices("render", "view", "view", &["standard", "agx"]);
     r.choices(
         "render",
         "aovs",
@@ -357,7 +360,11 @@ fn run_render(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
     if let Some(map) = tonemap {
         map.apply(&mut image);
     }
-    let clamped = render::write_image_with(&path, &image, &header)?;
+    let view = match a.opt("view") {
+        Some(name) => View::parse(name.as_str()?)?,
+        None => View::Standard,
+    };
+    let clamped = render::write_image_viewed(&path, &image, &header, view)?;
     if clamped > 0 {
         interp.warnings.push(
             Diagnostic::warning(
