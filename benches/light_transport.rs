@@ -118,15 +118,17 @@ fn main() {
         camera: Camera::new(EYE, DVec3::ZERO, DVec3::Y, 35.0).expect("camera"),
         lights: vec![Light::distant(SUN, DVec3::splat(3.0)).expect("light")],
     };
-    let mut settings = RenderSettings::default();
-    settings.width = SIZE;
-    settings.height = SIZE;
-    settings.kappa = DVec3::splat(KAPPA);
-    settings.albedo = Some(ALBEDO);
-    settings.phase = Phase::HenyeyGreenstein { g: G };
-    settings.integrator = Integrator::Path;
-    settings.sky = SKY;
-    settings.bounds = Some(Aabb::new(DVec3::splat(-0.6), DVec3::splat(0.6)));
+    let mut settings = RenderSettings {
+        width: SIZE,
+        height: SIZE,
+        kappa: DVec3::splat(KAPPA),
+        albedo: Some(ALBEDO),
+        phase: Phase::HenyeyGreenstein { g: G },
+        integrator: Integrator::Path,
+        sky: SKY,
+        bounds: Some(Aabb::new(DVec3::splat(-0.6), DVec3::splat(0.6))),
+        ..RenderSettings::default()
+    };
     println!(
         "dense cloud, {CELLS}³ cache, κ {KAPPA}, albedo {ALBEDO}, {SIZE}×{SIZE}, {} threads",
         rayon::current_num_threads()

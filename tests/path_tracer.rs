@@ -182,17 +182,19 @@ fn felt_render(s: &PeerScene) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
         camera: Camera::new(eye, lookat, up, fov).unwrap(),
         lights: vec![Light::distant(s.sun.0, s.sun.1).unwrap()],
     };
-    let mut settings = RenderSettings::default();
-    settings.width = s.size;
-    settings.height = s.size;
-    settings.spp = s.spp;
-    settings.kappa = DVec3::splat(s.kappa);
-    settings.albedo = Some(s.albedo);
-    settings.phase = Phase::HenyeyGreenstein { g: s.g };
-    settings.integrator = Integrator::Path;
-    settings.bounces = s.bounces;
-    settings.sky = s.sky;
-    settings.bounds = Some(Aabb::new(s.grid.lo, s.grid.hi));
+    let mut settings = RenderSettings {
+        width: s.size,
+        height: s.size,
+        spp: s.spp,
+        kappa: DVec3::splat(s.kappa),
+        albedo: Some(s.albedo),
+        phase: Phase::HenyeyGreenstein { g: s.g },
+        integrator: Integrator::Path,
+        bounces: s.bounces,
+        sky: s.sky,
+        bounds: Some(Aabb::new(s.grid.lo, s.grid.hi)),
+        ..RenderSettings::default()
+    };
     settings.aovs.variance = true;
     let image = render(&scene, &settings).unwrap();
     let channel = |name: &str| &image.aovs.iter().find(|(n, _)| n == name).unwrap().1;
@@ -296,6 +298,8 @@ fn path_tracer_matches_mitsuba_on_a_cloud_and_a_plume() {
         ("dense cloud", Grid::new([48; 3], lo, hi, cloud), 30.0, 0.95),
         ("thin plume", Grid::new([48; 3], lo, hi, plume), 6.0, 0.9),
     ];
+    // Every case is measured before any is judged, so one failure still reports the others.
+    let mut failures: Vec<String> = Vec::new();
     for (name, grid, kappa, albedo) in cases {
         let scene = PeerScene {
             grid,
@@ -318,10 +322,9 @@ fn path_tracer_matches_mitsuba_on_a_cloud_and_a_plume() {
             "{name}: felt mean {a:.5}, mitsuba mean {b:.5}, ratio {:.4}",
             a / b
         );
-        assert!(
-            (a / b - 1.0).abs() < 0.02,
-            "{name}: felt {a} vs mitsuba {b}"
-        );
+        if (a / b - 1.0).abs() >= 0.02 {
+            failures.push(format!("{name}: mean felt {a} vs mitsuba {b}"));
+        }
         // 4×4-block means: the RMSE of their difference against what the noise of both
         // renders gives (Mitsuba's variance taken equal to felt's at equal spp).
         let side = scene.size / 4;
@@ -343,9 +346,9 @@ fn path_tracer_matches_mitsuba_on_a_cloud_and_a_plume() {
         let blocks = (side * side) as f64;
         let (rmse, noise) = ((squared / blocks).sqrt(), (expected / blocks).sqrt());
         eprintln!("{name}: 4x4-block RMSE {rmse:.5}, expected from noise {noise:.5}");
-        assert!(
-            rmse < 1.5 * noise + 0.01 * b,
-            "{name}: RMSE {rmse} vs noise {noise}"
-        );
+        if rmse >= 1.5 * noise + 0.01 * b {
+            failures.push(format!("{name}: 4x4-block RMSE {rmse} vs noise {noise}"));
+        }
     }
+    assert!(failures.is_empty(), "{failures:#?}");
 }

@@ -206,7 +206,7 @@ impl<'a> Frame<'a> {
             let (mut sum, mut squares, mut transmitted) = (DVec3::ZERO, DVec3::ZERO, 0.0);
             for sample in 0..spp {
                 let mut random = PathRandom::new(s.seed, pixel, sample as u64);
-                let ray = self.raster.ray(x, y, random.next(), random.next());
+                let ray = self.raster.ray(x, y, random.uniform(), random.uniform());
                 let (radiance, transmittance) = self.trace(medium, ray, &mut random);
                 sum += radiance;
                 squares += radiance * radiance;
@@ -269,7 +269,7 @@ impl<'a> Frame<'a> {
             };
             if order >= ROULETTE_AFTER {
                 let survival = weight.max_element().min(1.0);
-                if !(random.next() < survival) {
+                if survival.is_nan() || random.uniform() >= survival {
                     return (radiance, DVec3::ZERO);
                 }
                 weight /= survival;

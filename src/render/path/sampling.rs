@@ -56,7 +56,7 @@ impl PathRandom {
     }
 
     /// The next number in [0, 1): the top 53 bits as a fraction, never 1.
-    pub fn next(&mut self) -> f64 {
+    pub fn uniform(&mut self) -> f64 {
         self.dimension += 1;
         let h = mix(self.bounce ^ self.dimension.wrapping_mul(0x94d0_49bb_1331_11eb));
         (h >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
@@ -65,7 +65,7 @@ impl PathRandom {
     /// An exponential variate of mean 1 (an optical depth to the next tentative collision).
     pub fn optical_depth(&mut self) -> f64 {
         // 1 − u is in (0, 1], so the logarithm is finite.
-        -(1.0 - self.next()).ln()
+        -(1.0 - self.uniform()).ln()
     }
 }
 
@@ -97,15 +97,15 @@ pub fn scatter(phase: &Phase, direction: DVec3, random: &mut PathRandom) -> DVec
         Phase::Isotropic => 0.0,
         Phase::HenyeyGreenstein { g } => g,
         Phase::TwoLobe { g1, g2, weight } => {
-            if random.next() < weight {
+            if random.uniform() < weight {
                 g1
             } else {
                 g2
             }
         }
     };
-    let cos_theta = henyey_greenstein_cosine(g, random.next());
-    around(direction, cos_theta, 2.0 * PI * random.next())
+    let cos_theta = henyey_greenstein_cosine(g, random.uniform());
+    around(direction, cos_theta, 2.0 * PI * random.uniform())
 }
 
 #[cfg(test)]
@@ -153,17 +153,17 @@ mod tests {
     fn numbers_depend_on_their_counters_only() {
         let mut a = PathRandom::new(1, 2, 3);
         a.start_bounce(4);
-        let first = a.next();
+        let first = a.uniform();
         let mut b = PathRandom::new(1, 2, 3);
-        b.next();
+        b.uniform();
         b.start_bounce(4);
-        assert_eq!(first.to_bits(), b.next().to_bits());
+        assert_eq!(first.to_bits(), b.uniform().to_bits());
         let mut c = PathRandom::new(1, 2, 4);
         c.start_bounce(4);
-        assert_ne!(first.to_bits(), c.next().to_bits());
+        assert_ne!(first.to_bits(), c.uniform().to_bits());
         // Uniform: the mean of many draws is ½ within a few standard errors.
         let n = 100_000;
-        let mean = (0..n).map(|_| a.next()).sum::<f64>() / n as f64;
+        let mean = (0..n).map(|_| a.uniform()).sum::<f64>() / n as f64;
         assert!((mean - 0.5).abs() < 5.0 * (1.0 / 12.0 / n as f64).sqrt());
     }
 }

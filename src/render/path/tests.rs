@@ -130,12 +130,14 @@ fn front_camera() -> Camera {
 }
 
 fn path_settings(size: usize, spp: u32) -> RenderSettings {
-    let mut settings = RenderSettings::default();
-    settings.width = size;
-    settings.height = size;
-    settings.spp = spp;
-    settings.integrator = Integrator::Path;
-    settings.bounds = Some(Aabb::new(DVec3::splat(-0.6), DVec3::splat(0.6)));
+    let mut settings = RenderSettings {
+        width: size,
+        height: size,
+        spp,
+        integrator: Integrator::Path,
+        bounds: Some(Aabb::new(DVec3::splat(-0.6), DVec3::splat(0.6))),
+        ..RenderSettings::default()
+    };
     settings.aovs.variance = true;
     settings
 }

@@ -206,7 +206,7 @@ impl<'a> Medium<'a> {
                 }
                 // The event's probability `P_x = c_x / total`; the weight's factor
                 // `σx/(μ̄·P_x) = σx·total/(μ̄·c_x)`.
-                let u = random.next() * total;
+                let u = random.uniform() * total;
                 if u < ca {
                     return Flight::Absorbed;
                 }
@@ -240,7 +240,7 @@ impl<'a> Medium<'a> {
                 let rho = self.density_at(ray.at(t), segment.density);
                 transmittance *= DVec3::ONE - self.kappa * (rho / majorant);
                 if transmittance.abs().max_element() < ROULETTE_BELOW {
-                    if random.next() >= ROULETTE_SURVIVAL {
+                    if random.uniform() >= ROULETTE_SURVIVAL {
                         return DVec3::ZERO;
                     }
                     transmittance /= ROULETTE_SURVIVAL;
