@@ -11,6 +11,10 @@
 //! data-segment limits (`ulimit -v`, `ulimit -d`). Half, because the budget counts the large
 //! buffers only; the interpreter, field graphs and per-thread scratch live beside them.
 
+mod threads;
+
+pub use threads::{WORKER_STACK_BYTES, threads_that_fit};
+
 use crate::failure::{Failure, Outcome};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -22,6 +26,8 @@ pub struct Budget {
     limit: AtomicU64,
     /// Bytes held by live reservations.
     used: AtomicU64,
+    /// The most `used` has been.
+    peak: AtomicU64,
 }
 
 impl Budget {
@@ -47,8 +53,17 @@ impl Budget {
         self.used.load(Ordering::Relaxed)
     }
 
-    /// Takes `bytes` of the budget for storage that lives on (a cache, a buffer).
+    /// Takes `bytes` of the budget for storage that lives on (a cache, a buffer). Kept spare
+    /// buffers (`crate::grid::spare`) are freed first when it would not fit otherwise.
     pub fn reserve(self: &Arc<Self>, bytes: f64, what: &str) -> Outcome<Reservation> {
+        self.reserve_unshed(bytes, what).or_else(|_| {
+            crate::grid::spare::shed_all();
+            self.reserve_unshed(bytes, what)
+        })
+    }
+
+    /// `reserve` without freeing kept spare buffers: for keeping another one.
+    pub fn reserve_unshed(self: &Arc<Self>, bytes: f64, what: &str) -> Outcome<Reservation> {
         if !(bytes.is_finite() && bytes >= 0.0) || bytes > u64::MAX as f64 {
             return Err(self.over(what, bytes));
         }
@@ -66,6 +81,7 @@ impl Budget {
                 Ordering::Relaxed,
             ) {
                 Ok(_) => {
+                    self.peak.fetch_max(current + wanted, Ordering::Relaxed);
                     return Ok(Reservation {
                         bytes: wanted,
                         budget: self.clone(),
@@ -76,13 +92,26 @@ impl Budget {
         }
     }
 
-    /// Checks that `bytes` fit in what is left of the budget, without holding them.
+    /// Checks that `bytes` fit in what is left of the budget, without holding them; kept
+    /// spare buffers are freed first when they would not fit otherwise.
     pub fn check(&self, bytes: f64, what: &str) -> Outcome<()> {
-        if !(bytes.is_finite() && bytes >= 0.0) || bytes + self.used() as f64 > self.limit() as f64
-        {
-            return Err(self.over(what, bytes));
+        let fits = |budget: &Budget| {
+            bytes.is_finite()
+                && bytes >= 0.0
+                && bytes + budget.used() as f64 <= budget.limit() as f64
+        };
+        if !fits(self) {
+            crate::grid::spare::shed_all();
+            if !fits(self) {
+                return Err(self.over(what, bytes));
+            }
         }
         Ok(())
+    }
+
+    /// The most bytes live reservations have held at once.
+    pub fn peak(&self) -> u64 {
+        self.peak.load(Ordering::Relaxed)
     }
 
     fn over(&self, what: &str, bytes: f64) -> Failure {

@@ -177,6 +177,7 @@ pub fn worker_pool(threads: usize) -> Result<rayon::ThreadPool, rayon::ThreadPoo
 fn pool_builder(slot: Arc<Slot>, threads: Option<usize>) -> rayon::ThreadPoolBuilder {
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads.unwrap_or(0))
+        .stack_size(crate::budget::WORKER_STACK_BYTES)
         .start_handler(move |_| {
             WORKER.with(|worker| {
                 let _ = worker.set(slot.clone());

@@ -53,9 +53,24 @@ fn main() -> ExitCode {
 
 /// Starts the worker pool of this thread (the one sessions run on) now, with `threads`
 /// workers or one per core, so that a pool that cannot start is a usage error here rather than
-/// a silent fallback at the first parallel loop.
+/// a silent fallback at the first parallel loop. Under an address-space limit (`ulimit -v`)
+/// the count is first cut to the threads whose stacks fit, with a warning.
 fn set_threads(threads: Option<u16>) -> Result<(), ExitCode> {
-    felt::engine::attach_pool(threads.map(usize::from)).map_err(|e| {
+    let wanted = threads.map(usize::from).unwrap_or_else(|| {
+        std::thread::available_parallelism()
+            .map(|n| n.get())
+            .unwrap_or(1)
+    });
+    let fitted = felt::budget::threads_that_fit(wanted);
+    if fitted < wanted {
+        eprintln!(
+            "felt: warning: {wanted} worker threads do not fit this process's address-space \
+             limit (`ulimit -v`); using {fitted}"
+        );
+        eprintln!("  help: raise `ulimit -v` or pass a smaller `--threads`");
+    }
+    let count = (threads.is_some() || fitted < wanted).then_some(fitted);
+    felt::engine::attach_pool(count).map_err(|e| {
         match threads {
             Some(n) => eprintln!("felt: cannot start {n} worker threads: {e}"),
             None => eprintln!("felt: cannot start the worker threads: {e}"),

@@ -38,6 +38,8 @@ pub struct DivergenceFree {
     domain: Domain,
     source: Mutex<Option<Arc<dyn FieldSampler>>>,
     solved: OnceLock<Result<DenseGrid, Failure>>,
+    /// The solved grid's share of the run's memory budget, held while it lives.
+    memory: OnceLock<crate::budget::Reservation>,
     /// Held while solving, so one thread solves and the others wait for its result.
     solving: Mutex<()>,
     identity: u64,
@@ -89,6 +91,7 @@ impl DivergenceFree {
             domain,
             source: Mutex::new(Some(source)),
             solved: OnceLock::new(),
+            memory: OnceLock::new(),
             solving: Mutex::new(()),
             identity: crate::grid::next_identity(),
             label,
@@ -135,13 +138,21 @@ impl DivergenceFree {
             // is made here, where the run's engine is current, so its workers use it.
             let pool = crate::engine::worker_pool(rayon::current_num_threads());
             std::thread::scope(|scope| {
-                scope
-                    .spawn(|| match pool {
+                let solver = std::thread::Builder::new()
+                    .stack_size(crate::budget::WORKER_STACK_BYTES)
+                    .spawn_scoped(scope, || match pool {
                         Ok(pool) => pool.install(|| self.run()),
                         Err(_) => self.run(),
-                    })
-                    .join()
-                    .unwrap_or_else(|_| Err(Failure::new("the fftdivfree solve failed")))
+                    });
+                match solver {
+                    Ok(solver) => solver
+                        .join()
+                        .unwrap_or_else(|_| Err(Failure::new("the fftdivfree solve failed"))),
+                    Err(e) => Err(Failure::new(format!(
+                        "cannot start a thread for the fftdivfree solve: {e}"
+                    ))
+                    .with_help("pass a smaller `--threads` or raise `ulimit -v`")),
+                }
             })
         } else {
             self.run()
@@ -197,6 +208,8 @@ impl DivergenceFree {
         let cells = domain.resolution.unwrap_or([1, 1, 1]);
         let [nx, ny, nz] = cells;
         let n = nx * ny * nz;
+        let bytes = (3 * n * std::mem::size_of::<f64>()) as f64;
+        let _samples = crate::budget::reserve(bytes, "fftdivfree's samples")?;
         // Sample row by row (x fastest), in blocks of at most BLOCK points: the same blocks on
         // any thread count, so the same values. Component-major, as the projection takes them.
         let mut planes = SPARE_VALUES.take(3 * n);
@@ -269,6 +282,9 @@ impl DivergenceFree {
             rotate_planes(&mut planes, n, domain.rotation);
         }
         // Interleaved for reading: a trilinear read touches one place per cell.
+        let _ = self
+            .memory
+            .set(crate::budget::reserve(bytes, "fftdivfree's result")?);
         let mut interleaved = SPARE_VALUES.take(3 * n);
         interleaved
             .par_chunks_mut(3)

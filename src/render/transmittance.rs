@@ -21,6 +21,7 @@
 
 use super::light::Light;
 use super::sweep::{WORKING, sweep};
+use crate::budget::Reservation;
 use crate::failure::{Failure, Outcome};
 use crate::grid::domain::Domain;
 use crate::sample::{Aabb, BLOCK, BlockEval, FieldSampler};
@@ -46,7 +47,7 @@ const BRICK: usize = 8;
 const BUNDLE: usize = 1024;
 
 /// A light's density column `∫ρ ds` towards the light, at a domain's cell centres.
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub struct LightGrid {
     domain: Domain,
     resolution: [usize; 3],
@@ -55,10 +56,17 @@ pub struct LightGrid {
     /// in slice order, and they are read there rather than copied into the grid's order.
     strides: [usize; 3],
     column: Vec<f32>,
+    /// The column grid's share of the run's memory budget, held while the grid lives.
+    _memory: Reservation,
 }
 
 impl LightGrid {
-    fn new(domain: &Domain, column: Vec<f32>, strides: [usize; 3]) -> LightGrid {
+    fn new(
+        domain: &Domain,
+        column: Vec<f32>,
+        strides: [usize; 3],
+        memory: Reservation,
+    ) -> LightGrid {
         let resolution = domain.resolution.unwrap_or([1, 1, 1]);
         let inv = DVec3::ONE / domain.cell;
         let to_index = DMat3::from_diagonal(inv) * domain.rotation.transpose();
@@ -68,6 +76,7 @@ impl LightGrid {
             to_index,
             strides,
             column,
+            _memory: memory,
         }
     }
 
@@ -200,8 +209,10 @@ pub fn light_columns(
             ),
         );
     };
-    // Density, columns and their slice-ordered copies: four grids at once while sweeping.
-    domain.check_grid_memory(4)?;
+    // The columns, held with the grid; the density and its slice-ordered copy only while
+    // sweeping.
+    let memory = domain.reserve_grid_memory(1)?;
+    let _working = domain.reserve_grid_memory(2)?;
     let sweep_axis = sweeps(light, domain);
     let use_sweep = match method {
         TransmissivityMethod::Sweep => {
@@ -230,7 +241,7 @@ pub fn light_columns(
             [1, nx, nx * ny],
         ),
     };
-    Ok(LightGrid::new(domain, column, strides))
+    Ok(LightGrid::new(domain, column, strides, memory))
 }
 
 /// The sweep axis and direction for `light`, if the sweep is accurate for it: `(axis, forward)`

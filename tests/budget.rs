@@ -1,0 +1,223 @@
+//! The memory budget's promise, measured: `felt run --memory-limit MB` on the heavy examples at
+//! small sizes keeps the process's peak resident memory within the limit plus the process's
+//! own baseline (its code, the interpreter, thread stacks), and scripts whose graphs grow
+//! without end (a tower of derivatives, a sphere cut by 24 knives) end in a budget diagnostic
+//! instead of growing until the machine gives out.
+//!
+//! Each child's peak RSS comes from the kernel's own accounting of that child (`wait4`'s
+//! rusage), so runs of other tests in parallel do not mix in. It is an upper bound: the kernel
+//! keeps the larger of the child's own peak and the peak of the memory it was started from
+//! (this test process, whose memory a spawned child shares until it runs felt), so a figure
+//! near this process's own size may be felt's or this process's; the assertion (≤) holds
+//! either way.
+
+#![cfg(target_os = "linux")]
+
+use std::fs::File;
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// What the process holds besides the budget: code, the interpreter and thread stacks.
+const BASELINE_MIB: u64 = 16;
+
+/// A finished child: exit status, peak RSS in MiB, stderr.
+struct Run {
+    code: i32,
+    peak_mib: f64,
+    stderr: String,
+}
+
+/// Runs `felt run SCRIPT ARGS --memory-limit LIMIT` in `dir` and measures its peak RSS.
+fn run(dir: &Path, script: &str, args: &[&str], limit_mib: u64) -> Run {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_felt"));
+    command
+        .arg("run")
+        .arg(script)
+        .args(args)
+        .args(["--memory-limit", &limit_mib.to_string()]);
+    if !args.contains(&"--threads") {
+        command.args(["--threads", "2"]);
+    }
+    wait(command, dir)
+}
+
+/// Starts `command` with its outputs under `dir`, waits for it and measures its peak RSS.
+fn wait(mut command: Command, dir: &Path) -> Run {
+    let out = File::create(dir.join("stdout")).unwrap();
+    let err = File::create(dir.join("stderr")).unwrap();
+    let script = format!("{command:?}");
+    let child = command
+        .arg("--output-dir")
+        .arg(dir)
+        .stdin(Stdio::null())
+        .stdout(out)
+        .stderr(err)
+        .spawn()
+        .unwrap();
+    let pid = child.id() as libc::pid_t;
+    let started = Instant::now();
+    let (status, usage) = loop {
+        let mut status = 0;
+        // SAFETY: wait4 writes only the status and rusage it is given; the child is ours and
+        // not waited for anywhere else.
+        let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+        let reaped = unsafe { libc::wait4(pid, &mut status, libc::WNOHANG, &mut usage) };
+        assert!(reaped >= 0, "wait4 failed");
+        if reaped == pid {
+            break (status, usage);
+        }
+        // A guard against a hung child, not a timing assertion.
+        assert!(
+            started.elapsed() < Duration::from_secs(300),
+            "{script} still running after 300 s"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    std::mem::forget(child);
+    let code = if libc::WIFEXITED(status) {
+        libc::WEXITSTATUS(status)
+    } else {
+        -libc::WTERMSIG(status)
+    };
+    Run {
+        code,
+        // ru_maxrss is in KiB on Linux.
+        peak_mib: usage.ru_maxrss as f64 / 1024.0,
+        stderr: std::fs::read_to_string(dir.join("stderr")).unwrap_or_default(),
+    }
+}
+
+fn example(name: &str) -> String {
+    format!("{}/examples/{name}", env!("CARGO_MANIFEST_DIR"))
+}
+
+/// Heavy examples at small sizes, each at a limit a little above what it needs: each must
+/// succeed and peak within the limit plus the baseline.
+#[test]
+fn heavy_examples_peak_within_their_memory_limit() {
+    // Each at a limit a little above the smallest that succeeds (in MiB).
+    let cases: &[(&str, &str, u64)] = &[
+        (
+            "hotcold_gridded.felt",
+            "--set res=64 --set frames=2 --set every=2 --set width=64 --set height=36",
+            48,
+        ),
+        (
+            "plume_obstacle.felt",
+            "--set res=32 --set frames=4 --set every=4 --set width=64 --set height=36",
+            76,
+        ),
+        (
+            "flame_galaxy.felt",
+            "--set res=160 --set dots=400000 --set width=128 --set height=72",
+            44,
+        ),
+        (
+            "cloud_sky.felt",
+            "--set res=256 --set frame=8 --set width=256 --set height=192",
+            40,
+        ),
+    ];
+    let dir = tempfile::tempdir().unwrap();
+    let mut failures = Vec::new();
+    println!("{:<28} {:>9} {:>14}", "script", "limit MiB", "peak RSS MiB");
+    for (script, args, limit) in cases {
+        let args: Vec<&str> = args.split_whitespace().collect();
+        let run = run(dir.path(), &example(script), &args, *limit);
+        println!("{script:<28} {limit:>9} {:>14.1}", run.peak_mib);
+        if run.code != 0 {
+            failures.push(format!("{script} failed at {limit} MiB:\n{}", run.stderr));
+        } else if run.peak_mib > (limit + BASELINE_MIB) as f64 {
+            failures.push(format!(
+                "{script} peaked at {:.1} MiB under a limit of {limit} MiB",
+                run.peak_mib
+            ));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// Scripts whose field graphs grow without end stop at the budget, with a diagnostic that
+/// says what grew, and peak within the limit plus the baseline.
+#[test]
+fn growing_graphs_end_in_a_budget_diagnostic() {
+    let dir = tempfile::tempdir().unwrap();
+    let tower = dir.path().join("tower.felt");
+    std::fs::write(
+        &tower,
+        "scalarfield f = perlin();\n\
+         for (int i = 0; i < 20; i++) {\n    f = laplacian(f);\n}\n\
+         print(\"done\");\n",
+    )
+    .unwrap();
+    let knives = dir.path().join("knives.felt");
+    std::fs::write(
+        &knives,
+        "scalarfield ball = sphere((0, 0, 0), 1.0);\n\
+         scalarfield[] knives;\n\
+         for (int k = 0; k < 24; k++) {\n    \
+             knives[k] = flatknife((0.01 * k, 0, 0), (1, 0.1 * k, 0.05 * k));\n}\n\
+         scalarfield[] sides = cutall(ball, knives);\n\
+         print(size(sides));\n",
+    )
+    .unwrap();
+    let limit = 48;
+    for (script, grew) in [(&tower, "derivative"), (&knives, "knife")] {
+        let run = run(dir.path(), script.to_str().unwrap(), &[], limit);
+        println!(
+            "{} at {limit} MiB: peak RSS {:.1} MiB",
+            script.display(),
+            run.peak_mib
+        );
+        assert_eq!(run.code, 1, "{}", run.stderr);
+        assert!(
+            run.stderr.contains("over the memory budget") && run.stderr.contains(grew),
+            "{}",
+            run.stderr
+        );
+        assert!(
+            run.peak_mib <= (limit + BASELINE_MIB) as f64,
+            "{} peaked at {:.1} MiB under a limit of {limit} MiB",
+            script.display(),
+            run.peak_mib
+        );
+    }
+}
+
+/// Under an address-space limit (`ulimit -v`, 2000 MB here) more worker threads than their
+/// stacks fit in are cut to the count that fits, with a warning, and the run completes.
+#[test]
+fn threads_beyond_the_address_space_are_cut_with_a_warning() {
+    use std::os::unix::process::CommandExt;
+    let dir = tempfile::tempdir().unwrap();
+    let mut command = Command::new(env!("CARGO_BIN_EXE_felt"));
+    command
+        .arg("run")
+        .arg(example("hotcold_gridded.felt"))
+        .args(
+            "--set res=16 --set frames=2 --set every=2 --set width=32 --set height=18 \
+             --threads 250"
+                .split_whitespace(),
+        );
+    // SAFETY: setrlimit is async-signal-safe; the closure touches nothing else.
+    unsafe {
+        command.pre_exec(|| {
+            let limit = libc::rlimit {
+                rlim_cur: 2_000_000 * 1024,
+                rlim_max: 2_000_000 * 1024,
+            };
+            if libc::setrlimit(libc::RLIMIT_AS, &limit) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            Ok(())
+        });
+    }
+    let run = wait(command, dir.path());
+    assert_eq!(run.code, 0, "{}", run.stderr);
+    assert!(
+        run.stderr.contains("250 worker threads do not fit"),
+        "{}",
+        run.stderr
+    );
+}
