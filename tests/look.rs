@@ -73,6 +73,14 @@ fn blackbody_chromaticity_matches_colour_science() {
         eprintln!("skipped: set FELT_PEER_TESTS=1 to compare with colour-science");
         return;
     }
+    let installed = std::process::Command::new("python3")
+        .args(["-c", "import colour"])
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !installed {
+        eprintln!("skipped: colour-science is not installed (pip install colour-science)");
+        return;
+    }
     let temperatures: Vec<f64> = (0..=56).map(|i| 800.0 + 200.0 * i as f64).collect();
     let script: String = temperatures
         .iter()
