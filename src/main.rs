@@ -107,11 +107,7 @@ fn run(cli: Cli) -> ExitCode {
                 }
                 if range.frames.len() > 1 {
                     let args: Vec<std::ffi::OsString> = std::env::args_os().skip(1).collect();
-                    let _ = ctrlc::set_handler(|| {
-                        felt::interrupt::stop_children();
-                        eprintln!("felt: interrupted");
-                        std::process::exit(130);
-                    });
+                    stop_children_when_interrupted();
                     return ExitCode::from(felt::sequence::run(range, &args));
                 }
                 engine.output.set_frame_range();
@@ -172,11 +168,7 @@ fn run(cli: Cli) -> ExitCode {
         } => {
             // Ctrl-C or SIGTERM: the running setting's process group is stopped first (it
             // removes its temporaries), then the study exits as an interrupted run does.
-            let _ = ctrlc::set_handler(|| {
-                felt::interrupt::stop_children();
-                eprintln!("felt: interrupted");
-                std::process::exit(130);
-            });
+            stop_children_when_interrupted();
             ExitCode::from(felt::study::run(&felt::study::StudyArgs {
                 script: file,
                 sweeps,
@@ -310,6 +302,17 @@ pub(crate) fn frame_param(
             Err(ExitCode::from(2))
         }
     }
+}
+
+/// On Ctrl-C or SIGTERM, a command that runs felt processes stops the running child's whole
+/// process group first (the child removes its own temporaries), then exits as an interrupted
+/// run does.
+fn stop_children_when_interrupted() {
+    let _ = ctrlc::set_handler(|| {
+        felt::interrupt::stop_children();
+        eprintln!("felt: interrupted");
+        std::process::exit(130);
+    });
 }
 
 #[cfg(test)]

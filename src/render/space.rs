@@ -106,17 +106,7 @@ impl Occupancy {
     }
 
     fn region(&self, lo: [usize; 3], hi: [usize; 3]) -> Aabb {
-        let at = |c: [usize; 3]| {
-            self.bounds.min + self.brick * DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64)
-        };
-        let mut max = at(hi);
-        // The last brick ends exactly on the box, not a rounding error short of it.
-        for (axis, &h) in hi.iter().enumerate() {
-            if h == self.counts[axis] {
-                max[axis] = self.bounds.max[axis];
-            }
-        }
-        Aabb::new(at(lo), max)
+        lattice_region(&self.bounds, self.brick, self.counts, lo, hi)
     }
 
     /// The runs of occupied bricks along `ray` within `[t0, t1]`, appended to `out` in order.
@@ -267,6 +257,25 @@ fn classify(
     );
     leaves.extend(right);
     1 + qa + qb
+}
+
+/// The box of cells `[lo, hi)` of a lattice of `counts` cells of size `cell` over `bounds`.
+/// The last cell ends exactly on the box, not a rounding error short of it.
+pub(super) fn lattice_region(
+    bounds: &Aabb,
+    cell: DVec3,
+    counts: [usize; 3],
+    lo: [usize; 3],
+    hi: [usize; 3],
+) -> Aabb {
+    let at = |c: [usize; 3]| bounds.min + cell * DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64);
+    let mut max = at(hi);
+    for (axis, &h) in hi.iter().enumerate() {
+        if h == counts[axis] {
+            max[axis] = bounds.max[axis];
+        }
+    }
+    Aabb::new(at(lo), max)
 }
 
 #[cfg(test)]

@@ -131,17 +131,7 @@ impl Majorants {
 
     /// The box of cells `[lo, hi)`.
     fn region(&self, lo: [usize; 3], hi: [usize; 3]) -> Aabb {
-        let at = |c: [usize; 3]| {
-            self.bounds.min + self.cell * DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64)
-        };
-        let mut max = at(hi);
-        // The last cell ends exactly on the box, not a rounding error short of it.
-        for (axis, &h) in hi.iter().enumerate() {
-            if h == self.counts[axis] {
-                max[axis] = self.bounds.max[axis];
-            }
-        }
-        Aabb::new(at(lo), max)
+        super::super::space::lattice_region(&self.bounds, self.cell, self.counts, lo, hi)
     }
 
     /// Bounds the cells `[lo, hi)`: nothing to record where the density is at most 0, else
