@@ -399,7 +399,7 @@ fn repl_in_a_real_terminal() {
         String::from_utf8_lossy(&started.stderr)
     );
     let wait_for = |needle: &str| -> String {
-        for _ in 0..100 {
+        for _ in 0..400 {
             std::thread::sleep(std::time::Duration::from_millis(50));
             let pane =
                 String::from_utf8_lossy(&tmux(&["capture-pane", "-p", "-t", &session]).stdout)
@@ -413,13 +413,41 @@ fn repl_in_a_real_terminal() {
         tmux(&["kill-session", "-t", &session]);
         panic!("`{needle}` never appeared:\n{pane}");
     };
+    let pane_now = || {
+        String::from_utf8_lossy(&tmux(&["capture-pane", "-p", "-t", &session]).stdout).into_owned()
+    };
+    // The last line with text on it, as the terminal shows it now.
+    let last_line = || {
+        pane_now()
+            .lines()
+            .rev()
+            .find(|l| !l.trim().is_empty())
+            .unwrap_or("")
+            .trim_end()
+            .to_string()
+    };
+    let settle = |ready: &dyn Fn(&str) -> bool, what: &str| {
+        for _ in 0..400 {
+            if ready(&last_line()) {
+                return;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(50));
+        }
+        let pane = pane_now();
+        tmux(&["kill-session", "-t", &session]);
+        panic!("{what} never appeared:\n{pane}");
+    };
+    // A line editor may drop keys typed while it evaluates the previous line, so each line
+    // is typed only at an empty prompt, and Enter is pressed only once the text shows.
     let send = |line: &str| {
+        settle(&|l| l == "felt>" || l == "...>", "an empty prompt");
         // tmux reads a trailing `;` as its own command separator unless escaped.
-        let line = match line.strip_suffix(';') {
+        let keys = match line.strip_suffix(';') {
             Some(head) => format!("{head}\\;"),
             None => line.to_string(),
         };
-        tmux(&["send-keys", "-t", &session, "-l", &line]);
+        tmux(&["send-keys", "-t", &session, "-l", &keys]);
+        settle(&|l| l.ends_with(line.trim_end()), "the typed line");
         tmux(&["send-keys", "-t", &session, "Enter"]);
     };
     wait_for("felt>");
@@ -433,20 +461,7 @@ fn repl_in_a_real_terminal() {
     wait_for("27.0");
     send("cube(undefined_name)");
     wait_for("unknown variable `undefined_name`");
-    // Typed-ahead keys can be dropped while a line is evaluated: wait for the next prompt.
-    let prompts = || {
-        let pane = String::from_utf8_lossy(&tmux(&["capture-pane", "-p", "-t", &session]).stdout)
-            .into_owned();
-        pane.lines().filter(|l| l.starts_with("felt>")).count()
-    };
-    let before = prompts();
     send("float y = cube(2) + 1");
-    for _ in 0..100 {
-        if prompts() > before {
-            break;
-        }
-        std::thread::sleep(std::time::Duration::from_millis(50));
-    }
     send("y * 2");
     wait_for("18.0");
     send(":type y");
