@@ -345,6 +345,7 @@ impl Session {
                 crate::interp::builtins::grids::report_nonfinite(&mut self.interp, &cache, span);
             }
         }
+        crate::interp::builtins::grids::report_map_reads(&mut self.interp);
         std::mem::take(&mut self.interp.warnings)
     }
 

@@ -105,7 +105,10 @@ fn gridless_advection_is_the_map_form_exactly() {
 
 #[test]
 fn selma_moves_the_map_with_the_buoyant_flow() {
-    let out = chapter("selma.felt");
+    // Its back-traces stay inside the box: no warning about reads outside the map's domain.
+    let outcome = common::run_script(Path::new("tests/scripts/chapter/selma.felt"), &[]);
+    assert!(outcome.diagnostics.is_empty(), "{}", outcome.rendered);
+    let out: Vec<Vec<f64>> = lines_of(outcome).iter().map(|l| numbers(l)).collect();
     // At the ball's start the map points below it: the gas there came from further down.
     assert!(out[0][1] < -0.41 && out[0][0].abs() < 1e-6, "{:?}", out[0]);
     // The density is the initial one moved: same peak, similar amount.
@@ -113,6 +116,85 @@ fn selma_moves_the_map_with_the_buoyant_flow() {
     assert!(close(out[1][2], out[1][5], 0.1 * out[1][5]), "{:?}", out[1]);
     // The map differs from the identity by at most a few hundredths after six frames.
     assert!(out[2][1] > 0.01 && out[2][1] < 0.1, "{:?}", out[2]);
+}
+
+/// The chapter's SELMA loop as printed, its density then read beyond the map's domain: there
+/// the map reads the zero background, every such point maps to the origin (the ball's centre,
+/// density 1), and the run says so once, with the count of those reads, at the `cachewrite`
+/// line, naming the read that fixes it. With that read the density outside is the ball's: 0.
+#[test]
+fn a_map_read_outside_its_domain_warns_once_with_the_count() {
+    let script = |read: &str| {
+        format!(
+            r#"param int frames = 10;
+domain region((-1, -1, -1), (2, 2, 2), (0, 0, 0), 0.0625);
+float dt = 0.1;
+vector gravity = (0, 1, 0);
+scalarfield initialdensity = mask(0.25 - identity() * identity());
+vectorfield Xmap = identity();
+vectorfield velocity;
+scalarfield density = initialdensity;
+for (int frame = 0; frame < frames; frame++) {{
+    Xmap = advect(Xmap, velocity, dt);
+    // Sample map onto into a grid
+    vectorcache XmapCache(region);
+    cachewrite( XmapCache, Xmap );
+    // Replace Xmap with the gridded version
+    Xmap = cacheread({read});
+    density = compose(initialdensity, Xmap);
+    velocity = advect( velocity, velocity, dt ) + dt*gravity*density ;
+    velocity = fftdivfree( velocity, region );
+}}
+domain wide((-2, -2, -2), (4, 4, 4), (0, 0, 0), 0.125);
+print(stats(density, wide));
+print(probe(density, (1.2, 1.2, 1.2)));
+"#
+        )
+    };
+    let printed = common::run_source("selma.felt", &script("XmapCache"));
+    assert!(printed.ok, "{}", printed.rendered);
+    let warnings: Vec<_> = printed
+        .diagnostics
+        .iter()
+        .filter(|d| d.message.contains("holds a map"))
+        .collect();
+    assert_eq!(warnings.len(), 1, "{}", printed.rendered);
+    // `wide` has 32³ cell centres, of which the 16³ within (-1, 1)³ are inside the map's
+    // domain; the probe is one more point outside: 32³ − 16³ + 1 reads outside.
+    let expected = 32u64.pow(3) - 16u64.pow(3) + 1;
+    assert!(
+        warnings[0]
+            .message
+            .contains(&format!("{expected} reads of it landed outside")),
+        "{}",
+        printed.rendered
+    );
+    assert!(
+        printed.rendered.contains("selma.felt:13:5"),
+        "{}",
+        printed.rendered
+    );
+    let help = warnings[0].help.as_deref().unwrap_or_default();
+    assert!(
+        help.contains(r#"cacheread(XmapCache, outside = "extrapolate")"#),
+        "{help}"
+    );
+    // What the warning is about: outside the domain the density reads the ball's centre.
+    let lines = lines_of(printed);
+    assert_eq!(numbers(&lines[1]), [1.0]);
+    // Read as the help says: no warning, and nothing outside the ball.
+    let fixed = common::run_source(
+        "selma.felt",
+        &script(r#"XmapCache, outside = "extrapolate""#),
+    );
+    assert!(
+        fixed.ok && fixed.diagnostics.is_empty(),
+        "{}",
+        fixed.rendered
+    );
+    let lines = lines_of(fixed);
+    assert_eq!(numbers(&lines[1]), [0.0]);
+    assert!(numbers(&lines[0])[2] < 0.01, "{}", lines[0]);
 }
 
 /// Seen from a script: the central-difference divergence of `fftdivfree`'s result, written

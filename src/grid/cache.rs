@@ -25,6 +25,7 @@
 
 mod build;
 mod fill;
+mod map_watch;
 pub mod outside;
 mod range;
 mod read;
@@ -137,6 +138,8 @@ pub struct Cache {
     identity: u64,
     label: String,
     profile: Option<Arc<GridStats>>,
+    /// Default reads outside the domain, counted for a vector cache that may be a map.
+    map_watch: Option<map_watch::MapWatch>,
     /// This cache's share of the run's memory budget, given back when it is dropped.
     _memory: crate::budget::Reservation,
 }
@@ -322,6 +325,7 @@ impl Cache {
             identity: crate::grid::next_identity(),
             label,
             profile: None,
+            map_watch: None,
             _memory: memory,
         })
     }
@@ -508,6 +512,7 @@ impl Drop for Cache {
         if let Some(stats) = &self.profile {
             stats.release(self.bytes());
         }
+        self.settle_map_reads();
     }
 }
 

@@ -82,6 +82,10 @@ pub struct Interpreter {
     pub call_span: Span,
     /// Every cache written, with the `cachewrite` call, to report non-finite values at the end.
     pub written_caches: Vec<(std::sync::Weak<crate::grid::cache::Cache>, Span)>,
+    /// Vector caches watched for map reads outside their domain (see `grid/cache/map_watch`),
+    /// and one tally per `cachewrite` line with the cache's name as written there.
+    pub map_watched: Vec<std::sync::Weak<crate::grid::cache::Cache>>,
+    pub map_tallies: Vec<(Span, String, std::sync::Arc<std::sync::atomic::AtomicU64>)>,
     /// Field graphs larger than this get a warning (once per run).
     pub graph_warning_nodes: usize,
     /// Where relative paths start and which files the run wrote (see `paths`).
@@ -121,6 +125,8 @@ impl Interpreter {
             graph_check_at: eval::GRAPH_WARNING_NODES,
             graph_warned: false,
             written_caches: Vec::new(),
+            map_watched: Vec::new(),
+            map_tallies: Vec::new(),
             files: crate::paths::ScriptFiles::default(),
             param_values: Vec::new(),
         }

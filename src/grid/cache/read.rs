@@ -41,7 +41,7 @@ const CELL_STEP: [usize; 3] = [1, BRICK, BRICK * BRICK];
 impl Cache {
     /// Continuous cell-index coordinates of a world point inside the domain box.
     #[inline]
-    fn index_coords(&self, p: DVec3) -> Option<DVec3> {
+    pub(super) fn index_coords(&self, p: DVec3) -> Option<DVec3> {
         let offset = p - self.domain.origin;
         // Most caches are axis-aligned: skip the rotation there.
         let local = if self.axis_aligned {
@@ -91,11 +91,13 @@ impl Cache {
         let n = xs.len();
         let cells = self.shape.cells;
         let mut unused = [[0.0; 3]; W];
+        let mut outside = 0;
         for i in 0..n {
             let Some(u) = self.index_coords(DVec3::new(xs[i], ys[i], zs[i])) else {
                 for c in 0..W {
                     out[c * n + i] = self.background[c];
                 }
+                outside += 1;
                 continue;
             };
             let u = u.to_array();
@@ -161,6 +163,7 @@ impl Cache {
                 out[c * n + i] = value[c];
             }
         }
+        self.add_reads_outside(outside);
     }
 
     /// The stencil sum when every cell lies in `brick`, from local cell `base`; `LEN` as for
@@ -467,6 +470,7 @@ impl GridSource for Cache {
                 _ => {}
             }
         }
+        self.count_reads_outside(xs, ys, zs);
         points::values_of(self, self.width, interp, xs, ys, zs, out);
     }
 

@@ -378,12 +378,67 @@ fn cachewrite(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
         var.background.clone(),
         label,
     )?;
-    let cache = Arc::new(cache);
+    let cache = Arc::new(cache.watch_map_reads(map_tally(interp)));
     interp
         .written_caches
         .push((Arc::downgrade(&cache), interp.call_span));
+    interp.map_watched.push(Arc::downgrade(&cache));
     *var.state.borrow_mut() = Some(cache);
     Ok(Value::Void)
+}
+
+/// The tally of map reads outside the domain for the `cachewrite` line being run, made on its
+/// first run (a loop's frames share it, so the warning comes once, with the total).
+fn map_tally(interp: &mut Interpreter) -> Arc<std::sync::atomic::AtomicU64> {
+    let span = interp.call_span;
+    if let Some((_, _, tally)) = interp.map_tallies.iter().find(|(s, _, _)| *s == span) {
+        return tally.clone();
+    }
+    // The cache's name as written: the call's first argument.
+    let name = {
+        let sources = interp.sources.borrow();
+        let text = &sources.get(span.file).text;
+        text.get(span.start as usize..span.end as usize)
+            .and_then(|call| call.split_once('('))
+            .and_then(|(_, args)| args.split([',', ')']).next())
+            .map(|name| name.trim().to_string())
+            .filter(|name| !name.is_empty())
+            .unwrap_or_else(|| "c".to_string())
+    };
+    let tally = Arc::new(std::sync::atomic::AtomicU64::new(0));
+    interp.map_tallies.push((span, name, tally.clone()));
+    tally
+}
+
+/// After a run: one warning per `cachewrite` line whose map was read outside its domain into
+/// the zero background, with the count and the read that fixes it.
+pub fn report_map_reads(interp: &mut Interpreter) {
+    for cache in std::mem::take(&mut interp.map_watched) {
+        if let Some(cache) = cache.upgrade() {
+            cache.settle_map_reads();
+        }
+    }
+    for (span, name, tally) in &interp.map_tallies {
+        let reads = tally.swap(0, std::sync::atomic::Ordering::Relaxed);
+        if reads == 0 {
+            continue;
+        }
+        interp.warnings.push(
+            Diagnostic::warning(
+                Stage::Runtime,
+                *span,
+                format!(
+                    "this cache holds a map, and {reads} read{} of it landed outside its \
+                     domain, where the zero background sends a point to the origin",
+                    if reads == 1 { "" } else { "s" }
+                ),
+            )
+            .with_help(format!(
+                "a map is close to the identity beyond its faces: read it with \
+                 cacheread({name}, outside = \"extrapolate\") (selmastep does)"
+            )),
+        );
+    }
 }
 
 fn written(a: &Args) -> Outcome<Arc<Cache>> {
