@@ -1,6 +1,7 @@
-//! Every example scene runs at thumbnail size and prints what it printed before (snapshots of
-//! its statistics, rounded to six significant digits so that the last bits of `f32` noise
-//! arithmetic on another processor do not matter), and its images are written and readable.
+//! Every example scene runs at thumbnail size without a warning and prints what it printed
+//! before (snapshots of its statistics, rounded to six significant digits so that the last
+//! bits of `f32` noise arithmetic on another processor do not matter), and its images are
+//! written and readable.
 
 mod common;
 
@@ -71,6 +72,13 @@ fn examples_run_at_thumbnail_size() {
             .collect();
         let outcome = common::run_script(path, &overrides);
         assert!(outcome.ok, "{}: {}", path.display(), outcome.rendered);
+        // An example teaches: one that warns teaches users to ignore warnings.
+        assert!(
+            outcome.diagnostics.is_empty(),
+            "{}: {}",
+            path.display(),
+            outcome.rendered
+        );
         let name = path.file_stem().unwrap().to_string_lossy().into_owned();
         insta::assert_snapshot!(name, rounded(&outcome.output));
     }

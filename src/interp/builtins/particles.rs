@@ -559,8 +559,9 @@ fn flamesplat(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
         .into_iter()
         .zip(std::iter::once(count_var).chain(color_var))
     {
-        // Two caches on one domain miss the same dots: one warning.
-        if warned != Some(splat.outside) {
+        // Two caches on one domain miss the same dots: one warning. A flame's attractor has
+        // far-flung dots a domain framing the shot crops; only more than 1 % is a mistake.
+        if warned != Some(splat.outside) && splat.outside * 100 > dots {
             warn_outside(interp, splat.outside, dots);
             warned = Some(splat.outside);
         }
