@@ -87,6 +87,9 @@ pub fn describe(name: &str) -> Option<String> {
             text.push('\n');
         }
         text.push_str(&format!("    {}\n", b.doc));
+        if let Some(details) = &b.details {
+            text.push_str(details);
+        }
         return Some(text);
     }
     stdlib_docs().into_iter().find(|d| d.name == name).map(|d| {

@@ -89,6 +89,9 @@ pub struct Builtin {
     pub signatures: Vec<Signature>,
     /// The group it belongs to in `felt doc` ("math", "fields", "render", ...).
     pub group: &'static str,
+    /// More than one line of doc: what `felt doc` shows after the doc line (render's
+    /// keyword table).
+    pub details: Option<String>,
 }
 
 impl Builtin {
@@ -151,10 +154,21 @@ impl Signatures {
                 doc,
                 signatures,
                 group,
+                details: None,
             },
         );
         assert!(previous.is_none(), "builtin `{name}` registered twice");
         name
+    }
+
+    /// Gives `builtin` more documentation than its doc line. Panics when there is no such
+    /// builtin: the call is part of felt's source.
+    pub fn details(&mut self, builtin: &str, text: String) {
+        let entry = self
+            .builtins
+            .get_mut(builtin)
+            .unwrap_or_else(|| panic!("no builtin `{builtin}` to document"));
+        entry.details = Some(text);
     }
 
     /// Gives parameter `param` of every form of `builtin` a fixed set of string values.

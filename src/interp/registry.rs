@@ -270,6 +270,11 @@ impl Registry {
         self.signatures.aliases(builtin, param, aliases);
     }
 
+    /// See `Signatures::details`.
+    pub fn details(&mut self, builtin: &str, text: String) {
+        self.signatures.details(builtin, text);
+    }
+
     /// Every builtin's signatures, for the checker.
     pub fn signatures(&self) -> &Signatures {
         &self.signatures

@@ -21,6 +21,7 @@ pub mod cie1931;
 pub mod exr_header;
 pub mod exr_order;
 pub mod image;
+pub mod keywords;
 pub mod light;
 mod lighting;
 mod march;

@@ -12,31 +12,13 @@ use crate::grid::cache::Cache;
 use crate::interp::Interpreter;
 use crate::interp::registry::{Args, Registry};
 use crate::interp::value::Value;
-use crate::render::settings::{Adaptive, Aovs, Integrator, MAX_BOUNCES, MultiScatter, Shadows};
-use crate::render::tonemap::ToneMap;
+use crate::render::keywords::{self, Keyword, KeywordType, RenderOptions, Setting};
 use crate::render::transmittance::TransmissivityMethod;
-use crate::render::view::View;
-use crate::render::{self, Camera, Light, Phase, RenderSettings, Scene};
+use crate::render::{self, Camera, Light, Scene};
 use crate::sample::GridSource;
 use glam::DVec3;
 use std::rc::Rc;
 use std::sync::Arc;
-
-/// The form of `render` with `kappa` of the given type (a float, or a vector per channel).
-macro_rules! render_form {
-    ($kappa:literal) => {
-        concat!(
-            "render(string path, scalarfield density, vectorfield color?, vectorfield emission?, ",
-            "camera camera, light[] lights?, ",
-            $kappa,
-            " kappa?, float step?, int width?, int height?, int spp?, int seed?, ",
-            "domain bounds?, float threshold?, float phase?, vector phase2?, scalarfield holdout?, ",
-            "vector ambient?, int multiscatter?, bool adaptive?, string[] aovs?, string shadows?, ",
-            "float powder?, float shadowcell?, float albedo?, string tonemap?, float brightness?, float gamma?, bool exr_half?, ",
-            "string integrator?, int bounces?, vector sky?, string view?) -> void"
-        )
-    };
-}
 
 pub fn register(r: &mut Registry) {
     r.add(
@@ -80,40 +62,27 @@ pub fn register(r: &mut Registry) {
             named(Light::point(a.get("position")?.as_vector()?, color)?, &a)
         },
     );
+    let forms = keywords::signatures();
+    let forms: Vec<&str> = forms.iter().map(String::as_str).collect();
     r.add(
         "rendering",
-        &[render_form!("float"), render_form!("vector")],
+        &forms,
         "raymarches density (lit by lights, coloured by color, glowing with emission) into an \
          OpenEXR image, or a PNG preview when path ends in .png; tonemap = \"max1\" or \"log\" \
          (brightness, gamma) compresses emission-only particle renders; view = \"standard\" \
          (clip at 1, the default) or \"agx\" (highlights roll off to white) is how a PNG shows it",
         run_render,
     );
-    r.choices(
-        "render",
-        "shadows",
-        "shadows mode",
-        &["cache", "march", "sweep"],
-    );
-    r.choices("render", "tonemap", "tone map", &["max1", "log"]);
-    r.choices("render", "integrator", "integrator", &["march", "path"]);
-    r.choices("render", "view", "view", &["standard", "agx"]);
-    r.choices(
-        "render",
-        "aovs",
-        "AOV",
-        &["depth", "transmittance", "emission", "lights", "variance"],
-    );
-    // What other renderers call these options, so a TD's habit finds felt's word.
-    r.aliases("render", "spp", &["samples", "pixelsamples", "aa_samples"]);
-    r.aliases("render", "step", &["stepsize", "step_size", "volumestep"]);
-    r.aliases(
-        "render",
-        "kappa",
-        &["extinction", "densityscale", "density_scale"],
-    );
-    r.aliases("render", "width", &["resx", "xres"]);
-    r.aliases("render", "height", &["resy", "yres"]);
+    // The keywords' allowed strings, aliases and meanings come from their table.
+    for keyword in keywords::KEYWORDS {
+        if let Some((noun, values)) = keyword.choices {
+            r.choices("render", keyword.name, noun, values);
+        }
+        if !keyword.aliases.is_empty() {
+            r.aliases("render", keyword.name, keyword.aliases);
+        }
+    }
+    r.details("render", keywords::doc_text());
     r.add(
         "rendering",
         &["transmissivity(scalarfield density, light l, domain d, float kappa) -> scalarfield"],
@@ -155,6 +124,43 @@ fn opt_field(a: &Args, key: &str) -> Outcome<Option<CompiledField>> {
     })
 }
 
+/// The value given for `keyword`, converted as its row's type says (`None` when not given).
+fn setting(a: &Args, keyword: &Keyword) -> Outcome<Option<Setting>> {
+    let name = keyword.name;
+    let Some(value) = a.opt(name) else {
+        return Ok(None);
+    };
+    Ok(Some(match keyword.kind {
+        KeywordType::Count => Setting::Int(a.opt_positive_int(name)?.unwrap_or(1) as i64),
+        KeywordType::Int => Setting::Int(value.as_int()?),
+        KeywordType::Float => Setting::Float(value.as_float()?),
+        KeywordType::PositiveFloat => {
+            Setting::Float(a.opt_positive_float(name)?.unwrap_or(f64::NAN))
+        }
+        KeywordType::Vector => Setting::Vector(value.as_vector()?),
+        KeywordType::FloatOrVector => match value {
+            Value::Vector(v) => Setting::Vector(*v),
+            other => Setting::Float(other.as_float()?),
+        },
+        KeywordType::Bool => Setting::Bool(matches!(value, Value::Bool(true))),
+        KeywordType::Str => Setting::Str(value.as_str()?.to_string()),
+        KeywordType::Strings => match value {
+            Value::Array(items, _) => Setting::Strings(
+                items
+                    .iter()
+                    .map(|v| v.as_str().map(str::to_string))
+                    .collect::<Outcome<_>>()?,
+            ),
+            _ => return Ok(None),
+        },
+        KeywordType::Domain => match value {
+            Value::Domain(d) => Setting::Box(d.bounds()),
+            _ => return Ok(None),
+        },
+        KeywordType::ScalarField => return Ok(None),
+    }))
+}
+
 fn run_render(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
     let path = interp.files.writing(a.string("path")?)?;
     let density = CompiledField::prepared(&a.get("density")?.as_field()?)?;
@@ -183,151 +189,8 @@ fn run_render(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
             .collect::<Outcome<_>>()?,
         _ => Vec::new(),
     };
-    let mut settings = RenderSettings::default();
-    settings.width = a.opt_positive_int("width")?.unwrap_or(settings.width);
-    settings.height = a.opt_positive_int("height")?.unwrap_or(settings.height);
-    settings.spp = a.opt_positive_int("spp")?.unwrap_or(settings.spp as usize) as u32;
-    if let Some(seed) = a.opt("seed") {
-        settings.seed = seed.as_int()? as u64;
-    }
-    match a.opt("kappa") {
-        Some(Value::Vector(k)) => settings.kappa = *k,
-        Some(v) => settings.kappa = DVec3::splat(v.as_float()?),
-        None => {}
-    }
-    settings.step = a.opt_float("step")?;
-    if let Some(t) = a.opt_float("threshold")? {
-        settings.threshold = t;
-    }
-    if let Some(g) = a.opt_float("phase")? {
-        settings.phase = Phase::HenyeyGreenstein { g };
-    }
-    if let Some(p) = opt_vector(&a, "phase2")? {
-        settings.phase = Phase::TwoLobe {
-            g1: p.x,
-            g2: p.y,
-            weight: p.z,
-        };
-    }
-    if let Some(Value::Domain(d)) = a.opt("bounds") {
-        settings.bounds = Some(d.bounds());
-    }
-    if let Some(ambient) = opt_vector(&a, "ambient")? {
-        settings.ambient = ambient;
-    }
-    if let Some(octaves) = a.opt("multiscatter") {
-        let octaves = octaves.as_int()?;
-        if !(1..=16).contains(&octaves) {
-            return Err(Failure::new(format!(
-                "multiscatter takes 1 to 16 octaves, found {octaves}"
-            )));
-        }
-        settings.multiscatter = Some(MultiScatter {
-            octaves: octaves as u32,
-            ..MultiScatter::default()
-        });
-    }
-    if let Some(p) = a.opt_float("powder")? {
-        settings.powder = Some(p);
-    }
-    settings.albedo = a.opt_float("albedo")?;
-    if let Some(Value::Bool(true)) = a.opt("adaptive") {
-        let step = settings.step.ok_or_else(|| {
-            Failure::new("adaptive stepping needs a step")
-                .with_help("pass step = the longest step to take")
-        })?;
-        settings.adaptive = Some(Adaptive::around(step));
-    }
-    if let Some(Value::Array(names, _)) = a.opt("aovs") {
-        let mut aovs = Aovs::default();
-        for name in names.iter() {
-            match name.as_str()? {
-                "depth" => aovs.depth = true,
-                "transmittance" => aovs.transmittance = true,
-                "emission" => aovs.emission = true,
-                "lights" => aovs.lights = true,
-                "variance" => aovs.variance = true,
-                other => {
-                    return Err(Failure::new(format!("unknown AOV \"{other}\"")).with_help(
-                        "the AOVs are \"depth\", \"transmittance\", \"emission\", \"lights\" \
-                         and, with integrator = \"path\", \"variance\"",
-                    ));
-                }
-            }
-        }
-        settings.aovs = aovs;
-    }
-    if let Some(mode) = a.opt("shadows") {
-        settings.shadows = match mode.as_str()? {
-            "cache" => Shadows::default(),
-            "march" => Shadows::March,
-            "sweep" => Shadows::Cache {
-                cell_size: None,
-                method: TransmissivityMethod::Sweep,
-            },
-            other => {
-                return Err(Failure::new(format!(
-                    "shadows must be \"cache\", \"sweep\" or \"march\", found \"{other}\""
-                )));
-            }
-        };
-    }
-    if let Some(cell) = a.opt_positive_float("shadowcell")? {
-        if settings.shadows == Shadows::March {
-            return Err(Failure::new(
-                "shadowcell sets the light cache; it has no meaning with shadows = \"march\"",
-            ));
-        }
-        let method = match settings.shadows {
-            Shadows::Cache { method, .. } => method,
-            Shadows::March => TransmissivityMethod::Auto,
-        };
-        settings.shadows = Shadows::Cache {
-            cell_size: Some(cell),
-            method,
-        };
-    }
-    if let Some(name) = a.opt("integrator") {
-        settings.integrator = match name.as_str()? {
-            "march" => Integrator::March,
-            "path" => Integrator::Path,
-            other => {
-                return Err(Failure::new(format!(
-                    "integrator must be \"march\" or \"path\", found \"{other}\""
-                )));
-            }
-        };
-    }
-    if let Some(bounces) = a.opt("bounces") {
-        let bounces = bounces.as_int()?;
-        if !(0..=i64::from(MAX_BOUNCES)).contains(&bounces) {
-            return Err(Failure::new(format!(
-                "bounces must be between 0 and {MAX_BOUNCES}, found {bounces}"
-            )));
-        }
-        settings.bounces = bounces as u32;
-    }
-    if let Some(sky) = opt_vector(&a, "sky")? {
-        settings.sky = sky;
-    }
-    if settings.integrator == Integrator::March && (a.given("bounces") || a.given("sky")) {
-        return Err(Failure::new("bounces and sky belong to the path tracer")
-            .with_help("add integrator = \"path\""));
-    }
-    let tonemap = match a.opt("tonemap") {
-        Some(name) => Some(ToneMap::parse(
-            name.as_str()?,
-            a.opt_float("brightness")?,
-            a.opt_float("gamma")?,
-        )?),
-        None if a.given("brightness") || a.given("gamma") => {
-            return Err(
-                Failure::new("brightness and gamma belong to tonemap = \"log\"")
-                    .with_help("add tonemap = \"log\""),
-            );
-        }
-        None => None,
-    };
+    let options = RenderOptions::from_keywords(|keyword| setting(&a, keyword))?;
+    let settings = options.settings;
     let scene = Scene {
         density: &density,
         color: color
@@ -348,7 +211,7 @@ fn run_render(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
         Failure::new(format!("cannot write image '{}': {e}", path.display()))
             .with_help("write somewhere else, or move what is in the way")
     })?;
-    let half = matches!(a.opt("exr_half"), Some(Value::Bool(true)));
+    let half = options.exr_half;
     let header = render::exr_header::options(
         &scene.camera,
         settings.width,
@@ -357,14 +220,10 @@ fn run_render(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
         crate::provenance::of(interp),
     );
     let (mut image, render_stats) = render::render_with_stats(&scene, &settings)?;
-    if let Some(map) = tonemap {
+    if let Some(map) = &options.tonemap {
         map.apply(&mut image);
     }
-    let view = match a.opt("view") {
-        Some(name) => View::parse(name.as_str()?)?,
-        None => View::Standard,
-    };
-    let clamped = render::write_image_viewed(&path, &image, &header, view)?;
+    let clamped = render::write_image_viewed(&path, &image, &header, options.view)?;
     if clamped > 0 {
         interp.warnings.push(
             Diagnostic::warning(
