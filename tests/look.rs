@@ -197,3 +197,44 @@ fn unknown_views_are_errors() {
     assert!(view::View::parse("filmic").is_err() && view::View::parse("AgX").is_err());
     assert_eq!(view::View::parse("agx").ok(), Some(view::View::Agx));
 }
+
+/// Every EXR says what its pixels are: OpenEXR's standard `chromaticities` attribute holds the
+/// ITU-R BT.709 primaries and the D65 white (the values BT.709 publishes), read back by the
+/// `exr` crate and, with `FELT_PEER_TESTS=1`, by OpenEXR's own `exrheader`.
+#[test]
+fn exr_images_declare_rec709_chromaticities() {
+    let dir = tempfile::tempdir().unwrap();
+    let script = dir.path().join("chroma.felt");
+    std::fs::write(
+        &script,
+        "camera cam = camera((0, 0, 3), (0, 0, 0), (0, 1, 0), 40);\n\
+         render(\"chroma.exr\", density = mask(sphere((0, 0, 0), 0.5)), camera = cam, width = 8, height = 8);\n",
+    )
+    .unwrap();
+    let outcome = common::run_script(&script, &[]);
+    assert!(outcome.ok, "{}", outcome.rendered);
+    let path = dir.path().join("chroma.exr");
+    let meta = exr::meta::MetaData::read_from_file(&path, false).unwrap();
+    let c = meta.headers[0]
+        .shared_attributes
+        .chromaticities
+        .expect("a chromaticities attribute");
+    let published = [
+        (c.red, (0.64, 0.33)),
+        (c.green, (0.30, 0.60)),
+        (c.blue, (0.15, 0.06)),
+        (c.white, (0.3127, 0.3290)),
+    ];
+    for (found, (x, y)) in published {
+        assert_eq!((found.0, found.1), (x as f32, y as f32));
+    }
+    if std::env::var_os("FELT_PEER_TESTS").is_some()
+        && let Ok(out) = std::process::Command::new("exrheader").arg(&path).output()
+    {
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            text.contains("chromaticities") && text.contains("0.3127"),
+            "{text}"
+        );
+    }
+}

@@ -30,19 +30,9 @@ const H: f64 = 6.626_070_15e-34;
 const C: f64 = 299_792_458.0;
 const K: f64 = 1.380_649e-23;
 
-/// XYZ → linear Rec.709, derived from the ITU-R BT.709 primaries and the D65 white point
-/// (x, y = 0.3127, 0.3290), the derivation IEC 61966-2-1 (sRGB) gives to four digits.
+/// XYZ → linear Rec.709, felt's working space (`working_space`).
 pub fn xyz_to_rec709() -> DMat3 {
-    let xyz = |x: f64, y: f64| DVec3::new(x / y, 1.0, (1.0 - x - y) / y);
-    let primaries = DMat3::from_cols(xyz(0.64, 0.33), xyz(0.30, 0.60), xyz(0.15, 0.06));
-    let white = xyz(0.3127, 0.3290);
-    let scale = primaries.inverse() * white;
-    let rgb_to_xyz = DMat3::from_cols(
-        primaries.x_axis * scale.x,
-        primaries.y_axis * scale.y,
-        primaries.z_axis * scale.z,
-    );
-    rgb_to_xyz.inverse()
+    super::working_space::xyz_to_working()
 }
 
 /// Spectral radiance of a black body (W·sr⁻¹·m⁻³) at wavelength `lambda` metres.

@@ -244,6 +244,15 @@ fn write_exr(
         AnyChannels::sort(channels.into()),
     );
     let mut encoded = ExrImage::from_layer(layer);
+    // The pixels' colour space, in the standard attribute compositors read.
+    let xy = |(x, y): (f64, f64)| exr::math::Vec2(x as f32, y as f32);
+    let [red, green, blue] = super::working_space::PRIMARIES;
+    encoded.attributes.chromaticities = Some(exr::meta::attribute::Chromaticities {
+        red: xy(red),
+        green: xy(green),
+        blue: xy(blue),
+        white: xy(super::working_space::WHITE),
+    });
     if let Some(placement) = placement {
         placement.apply(&mut encoded);
     }

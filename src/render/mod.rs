@@ -35,6 +35,7 @@ mod tile;
 pub mod tonemap;
 pub mod transmittance;
 pub mod view;
+pub mod working_space;
 
 #[cfg(test)]
 mod testing;

@@ -14,6 +14,7 @@
 //! Values above 1 are not clipped but rolled off: a grey of 0.18 shows as 0.21 (display-linear),
 //! 1 as 0.59, 4 as 0.86, and 16 (the top of the encoding) and above as 0.995 to 0.997.
 
+use super::working_space::{PRIMARIES, REC2020_PRIMARIES, rgb_to_xyz};
 use crate::failure::{Failure, Outcome};
 use glam::{DMat3, DVec3};
 
@@ -53,20 +54,7 @@ impl View {
 
 /// Linear Rec.709 → linear Rec.2020 (both D65), from the two sets of primaries.
 fn rec709_to_rec2020() -> DMat3 {
-    rgb_to_xyz([(0.708, 0.292), (0.170, 0.797), (0.131, 0.046)]).inverse()
-        * rgb_to_xyz([(0.64, 0.33), (0.30, 0.60), (0.15, 0.06)])
-}
-
-/// The RGB → XYZ matrix of primaries `p` with the D65 white (x, y = 0.3127, 0.3290).
-fn rgb_to_xyz(p: [(f64, f64); 3]) -> DMat3 {
-    let xyz = |(x, y): (f64, f64)| DVec3::new(x / y, 1.0, (1.0 - x - y) / y);
-    let primaries = DMat3::from_cols(xyz(p[0]), xyz(p[1]), xyz(p[2]));
-    let scale = primaries.inverse() * xyz((0.3127, 0.3290));
-    DMat3::from_cols(
-        primaries.x_axis * scale.x,
-        primaries.y_axis * scale.y,
-        primaries.z_axis * scale.z,
-    )
+    rgb_to_xyz(REC2020_PRIMARIES).inverse() * rgb_to_xyz(PRIMARIES)
 }
 
 /// The ends of AgX's log2 encoding, in EV: log2(2^-10 · 0.18) and log2(2^6.5 · 0.18).
