@@ -118,7 +118,8 @@ impl Overlay {
         self.body.push_str("</g>\n");
     }
 
-    /// The legend, in the corner of the plot area where it covers the fewest markers.
+    /// The legend, where it covers the fewest markers: a corner of the plot area if one is
+    /// as clear as anywhere, else the middle of a side or the centre.
     pub fn legend(&mut self, entries: &[Entry]) {
         if entries.is_empty() {
             return;
@@ -133,11 +134,20 @@ impl Overlay {
             .fold(0.0, f64::max);
         let (w, h) = (text_width + 38.0, entries.len() as f64 * ROW + 8.0);
         let a = self.area;
+        let (right, left) = (a.x1 - w - 8.0, a.x0 + 8.0);
+        let (top, bottom) = (a.y0 + 8.0, a.y1 - h - 8.0);
+        let (middle, centre) = (0.5 * (top + bottom), 0.5 * (left + right));
+        // The corners first, then the middles of the sides, then the centre.
         let corners = [
-            (a.x1 - w - 8.0, a.y0 + 8.0),
-            (a.x0 + 8.0, a.y0 + 8.0),
-            (a.x1 - w - 8.0, a.y1 - h - 8.0),
-            (a.x0 + 8.0, a.y1 - h - 8.0),
+            (right, top),
+            (left, top),
+            (right, bottom),
+            (left, bottom),
+            (right, middle),
+            (left, middle),
+            (centre, top),
+            (centre, bottom),
+            (centre, middle),
         ];
         let covered = |(x0, y0): (f64, f64)| {
             let r = Rect {
