@@ -144,9 +144,15 @@ pub enum Command {
         /// Fix a param for every run, reference included: `--set name=value` (repeatable).
         #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_assignment)]
         set: Vec<(String, String)>,
-        /// Run each setting N times and report the median times.
-        #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=1000))]
+        /// Run each setting N times and report the medians of its wall and CPU times (one
+        /// run's time is noise: a cold file cache or another job can double it).
+        #[arg(long, value_name = "N", default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=1000))]
         repeat: u32,
+        /// The swept param the Pareto fronts trade (default: the last swept param whose
+        /// values are numbers, else the last swept param); one front is drawn per setting of
+        /// the other swept params.
+        #[arg(long, value_name = "NAME")]
+        trade: Option<String>,
         /// The study's folder: runs, the cached references, study.csv and the plots
         /// (default: SCRIPT-study in the current folder).
         #[arg(long, value_name = "DIR")]
@@ -199,7 +205,9 @@ param that is not swept, such as a finer resolution for the reference alone). Wh
 wrote and printed is compared with what its reference wrote and printed:
 
   images (.exr, .png)   RMSE, PSNR and relative MSE of RGBA, and SSIM of the displayed colour
-  VDB files (.vdb)      RMSE and largest error over the union of active voxels, per grid
+  VDB files (.vdb)      RMSE and largest error over the union of active voxels, per grid; a
+                        grid on other voxels (another resolution) is resampled onto the
+                        reference's voxels, trilinear in world space, and marked † in the table
   printed numbers       each number's value, absolute and relative error; a line's label is
                         its text without the numbers (print(\"area error\", e) is \"area error\")
 
@@ -207,11 +215,19 @@ A printed line whose label contains \"error\" or \"seconds\" (or \"time\") is a 
 script measured itself, against an exact answer or with clock(): it is shown as it is, not \
 compared with the reference's.
 
+Each setting runs --repeat times (3 by default); the table and study.csv give the medians \
+of its wall time (seconds) and CPU time (user plus system, all threads), and the count of \
+runs.
+
 The study prints a table and writes, into --out: study.csv (one row per setting), \
-pareto-MEASURE.svg (each error against seconds on log-log axes, the Pareto front marked), \
+pareto-MEASURE.svg (each error against seconds on log-log axes, the Pareto front marked: \
+one front per setting of the swept params other than the traded one, see --trade), \
 MEASURE-vs-PARAM.svg (each error against each swept param) and seconds-vs-PARAM.svg and \
 peak-mib-vs-PARAM.svg (the costs). Errors plotted are the RMSEs and largest errors, relative \
-errors of printed numbers, and the errors the script printed itself (by their size).
+errors of printed numbers, and the errors the script printed itself (by their size). A \
+setting whose error is exactly 0 is drawn on the floor of the log axis with its own marker \
+(\"exact: error 0\" in the legend). Each setting of the other params keeps one colour in \
+every plot of a study.
 
 Reference runs are cached in --out/reference, keyed by the text of the script and every file \
 it imports, felt's version and the reference's params: running the study again with more \
@@ -219,7 +235,9 @@ settings reuses them. A setting whose run fails is reported and the study goes o
 
 Exit status: 0 when every setting ran and was compared; 1 when the script has errors or a \
 run (or the reference) failed; 2 for bad usage: unknown params, values of the wrong type, \
-empty sweeps, or settings that write other files than their reference.
+empty sweeps, or settings some of whose outputs cannot be compared with their reference's \
+(files only one of them wrote, images of other sizes); the rest of such a setting's outputs \
+are still compared and reported.
 
 Example:
   felt study examples/studies/raymarch_step.felt --sweep step=0.04,0.02,0.01 \\

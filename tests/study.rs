@@ -1,9 +1,20 @@
 //! `felt study` end to end: a study whose error law is known in closed form, the CSV and the
 //! plots it writes, failing settings, outputs that cannot be compared, the cached reference,
-//! image and grid comparisons, and bad input.
+//! image and grid comparisons, and bad input; in `study/`, grids on other voxels resampled
+//! (`grids`), the Pareto fronts and the plots' labels, markers and colours (`plots`), and
+//! repeated runs (`repeats`).
+//!
+//! Studies here run each setting once (`--repeat 1`) unless a test is about the repeats.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+
+#[path = "study/grids.rs"]
+mod grids;
+#[path = "study/plots.rs"]
+mod plots;
+#[path = "study/repeats.rs"]
+mod repeats;
 
 /// The midpoint rule for ∫₀¹ eˣ dx with `n` intervals: its error is (e − 1)/(24 n²) to leading
 /// order, so the error against a far finer reference falls as h² with h = 1/n.
@@ -25,12 +36,21 @@ fn script(dir: &Path, name: &str, text: &str) -> PathBuf {
 }
 
 fn study(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_felt"))
-        .current_dir(dir)
-        .arg("study")
-        .args(args)
-        .output()
-        .unwrap()
+    let mut all = args.to_vec();
+    if !args.contains(&"--repeat") {
+        all.extend(["--repeat", "1"]);
+    }
+    study_as_given(dir, &all, &[])
+}
+
+/// `felt study` with exactly `args`, and `env` set for it and the runs it starts.
+fn study_as_given(dir: &Path, args: &[&str], env: &[(&str, &Path)]) -> Output {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_felt"));
+    command.current_dir(dir).arg("study").args(args);
+    for (name, value) in env {
+        command.env(name, value);
+    }
+    command.output().unwrap()
 }
 
 fn text(output: &Output) -> String {
@@ -343,6 +363,10 @@ fn help_documents_the_command() {
         "--sweep",
         "--reference",
         "--repeat",
+        "--trade",
+        "resampled",
+        "medians",
+        "exact: error 0",
         "SSIM",
         "study.csv",
         "Pareto",

@@ -6,16 +6,18 @@
 //!   error over the reference's square plus 0.01, the form renderers report), and SSIM of the
 //!   displayed colour. EXR is compared in its stored linear, premultiplied values; PNG in its
 //!   stored 8-bit values scaled to [0, 1]. SSIM needs images of at least 11 × 11 pixels.
-//! - **VDB files**: for each grid of the reference, RMSE and largest error over the union of
-//!   the two grids' active voxels (the vector difference's length for vector grids). The two
-//!   grids must share their voxel transform.
+//! - **VDB files**: for each grid of the reference, RMSE and largest error (`grids`); a grid on
+//!   other voxels than the reference's is resampled onto the reference's.
 //! - **Printed numbers**: every number on each line of standard output. A line's label is its
 //!   text without the numbers; the k-th line with a label is matched with the reference's k-th
 //!   line with that label, number by number. A line whose label says it is an error
 //!   ("area error") or a time ("fill seconds") the script measured itself is shown as it is,
 //!   not compared; errors among them are plotted.
+//!
+//! The key decision: a setting is compared in whatever can be compared. A file it did not
+//! write, or an image of another size, is a problem of that one output, reported beside the
+//! measures of every other output, so one unmatched file never hides the rest of the row.
 
-use crate::grid::vdb::{self, VdbGrid};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
@@ -26,6 +28,8 @@ pub struct Measure {
     pub name: String,
     pub value: f64,
     pub kind: Kind,
+    /// Measured on the run's grid resampled onto the reference's voxels (the two differ).
+    pub resampled: bool,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -41,7 +45,12 @@ pub enum Kind {
 
 impl Measure {
     fn new(name: String, value: f64, kind: Kind) -> Measure {
-        Measure { name, value, kind }
+        Measure {
+            name,
+            value,
+            kind,
+            resampled: false,
+        }
     }
 
     /// Whether the plots show this measure as an error to minimise.
@@ -97,17 +106,39 @@ pub fn files_under(directory: &Path) -> std::io::Result<Vec<PathBuf>> {
     Ok(found)
 }
 
-/// The measures of one run's outputs against its reference's. An error says why the two
-/// cannot be compared (different files, sizes or grids).
+/// What one run's outputs came to against its reference's.
+#[derive(Debug, Default)]
+pub struct Comparison {
+    pub measures: Vec<Measure>,
+    /// What could not be compared, and why, one output each.
+    pub problems: Vec<String>,
+}
+
+/// The measures of one run's outputs against its reference's, and the outputs that cannot be
+/// compared (files only one of them wrote, images of other sizes, grids of other kinds).
 pub fn compare(
     run: &Path,
     run_stdout: &str,
     reference: &Path,
     reference_stdout: &str,
-) -> Result<Vec<Measure>, String> {
-    let ours = files_under(run).map_err(|e| format!("cannot list its outputs: {e}"))?;
-    let theirs =
-        files_under(reference).map_err(|e| format!("cannot list the reference's outputs: {e}"))?;
+) -> Comparison {
+    let mut found = Comparison::default();
+    let ours = match files_under(run) {
+        Ok(files) => files,
+        Err(e) => {
+            found.problems.push(format!("cannot list its outputs: {e}"));
+            return found;
+        }
+    };
+    let theirs = match files_under(reference) {
+        Ok(files) => files,
+        Err(e) => {
+            found
+                .problems
+                .push(format!("cannot list the reference's outputs: {e}"));
+            return found;
+        }
+    };
     let missing: Vec<String> = theirs
         .iter()
         .filter(|f| !ours.contains(f))
@@ -118,43 +149,41 @@ pub fn compare(
         .filter(|f| !theirs.contains(f))
         .map(|f| f.display().to_string())
         .collect();
-    if !missing.is_empty() || !extra.is_empty() {
-        let mut parts = Vec::new();
-        if !missing.is_empty() {
-            parts.push(format!(
-                "did not write {} (the reference did)",
-                missing.join(", ")
-            ));
-        }
-        if !extra.is_empty() {
-            parts.push(format!(
-                "wrote {}, which the reference did not",
-                extra.join(", ")
-            ));
-        }
-        return Err(format!(
-            "it writes different files from its reference: {}; a study compares files of the \
-             same name, so output names must not depend on the swept params",
-            parts.join("; ")
+    if !missing.is_empty() {
+        found.problems.push(format!(
+            "did not write {} (the reference did)",
+            missing.join(", ")
         ));
     }
-    let mut measures = Vec::new();
-    for file in &theirs {
+    if !extra.is_empty() {
+        found.problems.push(format!(
+            "wrote {}, which the reference did not; a study compares files of the same \
+             name, so output names must not depend on the swept params",
+            extra.join(", ")
+        ));
+    }
+    for file in theirs.iter().filter(|f| ours.contains(f)) {
         let name = file.display().to_string();
         let (a, b) = (run.join(file), reference.join(file));
         let extension = file
             .extension()
             .and_then(|e| e.to_str())
             .map(str::to_ascii_lowercase);
-        let found = match extension.as_deref() {
+        let measured = match extension.as_deref() {
             Some("exr") | Some("png") => compare_images(&name, &a, &b),
-            Some("vdb") => compare_vdb(&name, &a, &b),
+            Some("vdb") => super::grids::compare_vdb(&name, &a, &b),
             _ => Ok(Vec::new()),
         };
-        measures.extend(found.map_err(|e| format!("{name}: {e}"))?);
+        match measured {
+            Ok(measures) => found.measures.extend(measures),
+            Err(e) => found.problems.push(format!("{name}: {e}")),
+        }
     }
-    measures.extend(compare_printed(run_stdout, reference_stdout)?);
-    Ok(measures)
+    match compare_printed(run_stdout, reference_stdout) {
+        Ok(measures) => found.measures.extend(measures),
+        Err(e) => found.problems.push(e),
+    }
+    found
 }
 
 /// An image as RGBA samples in [0, 1]-ish units, row-major.
@@ -274,112 +303,6 @@ fn displayed(image: &Pixels) -> Result<iqa::Image<iqa::Srgb16>, String> {
         .flat_map(|p| [encode(p[0]), encode(p[1]), encode(p[2])])
         .collect();
     iqa::Image::srgb16(image.width as u32, image.height as u32, data).map_err(|e| e.to_string())
-}
-
-fn compare_vdb(name: &str, run: &Path, reference: &Path) -> Result<Vec<Measure>, String> {
-    let ours = vdb::read_file(run).map_err(|f| f.message)?;
-    let theirs =
-        vdb::read_file(reference).map_err(|f| format!("the reference's copy: {}", f.message))?;
-    let mut measures = Vec::new();
-    for grid in &theirs {
-        let label = if theirs.len() == 1 {
-            name.to_string()
-        } else {
-            format!("{name}:{}", grid.name)
-        };
-        let other = ours
-            .iter()
-            .find(|g| g.name == grid.name)
-            .ok_or_else(|| format!("it has no grid named '{}' (the reference has)", grid.name))?;
-        if other.components() != grid.components() {
-            return Err(format!(
-                "grid '{}' holds {} components, the reference's {}",
-                grid.name,
-                other.components(),
-                grid.components()
-            ));
-        }
-        if other.index_to_world != grid.index_to_world {
-            return Err(format!(
-                "grid '{}' has other voxels than the reference's (its voxel size or position \
-                 differs); compare caches on one domain",
-                grid.name
-            ));
-        }
-        let (rmse, max) = grid_errors(other, grid)?;
-        measures.push(Measure::new(format!("{label} rmse"), rmse, Kind::Error));
-        measures.push(Measure::new(format!("{label} max"), max, Kind::Error));
-    }
-    Ok(measures)
-}
-
-/// Voxels a comparison may visit: a billion takes minutes and is far past any cache a study
-/// is meant for.
-const MAX_COMPARED_VOXELS: u64 = 1 << 30;
-
-/// RMSE and largest error of `a` against `b` over the union of their active voxels.
-fn grid_errors(a: &VdbGrid, b: &VdbGrid) -> Result<(f64, f64), String> {
-    let n = b.components();
-    let (mut squared, mut max, mut count) = (0.0f64, 0.0f64, 0u64);
-    let mut visit = |ijk: [i32; 3]| {
-        let (x, y) = (a.probe(ijk).0, b.probe(ijk).0);
-        let d2: f64 = (0..n).map(|c| (x[c] as f64 - y[c] as f64).powi(2)).sum();
-        squared += d2;
-        max = max.max(d2.sqrt());
-        count += 1;
-    };
-    // The active voxels of `b`, then those of `a` that `b` does not have active.
-    for (grid, other) in [(b, None), (a, Some(b))] {
-        let voxels = active_voxels(grid);
-        if voxels > MAX_COMPARED_VOXELS {
-            return Err(format!("{voxels} active voxels are too many to compare"));
-        }
-        for_each_active(grid, |ijk| {
-            if other.is_none_or(|o| !o.probe(ijk).1) {
-                visit(ijk);
-            }
-        });
-    }
-    if count == 0 {
-        return Ok((0.0, 0.0));
-    }
-    Ok(((squared / count as f64).sqrt(), max))
-}
-
-fn active_voxels(grid: &VdbGrid) -> u64 {
-    let leaves: u64 = grid.leaves.iter().map(|l| l.active_count() as u64).sum();
-    let tiles: u64 = grid
-        .tiles
-        .iter()
-        .filter(|t| t.active)
-        .map(|t| (t.size as u64).pow(3))
-        .sum();
-    leaves + tiles
-}
-
-fn for_each_active(grid: &VdbGrid, mut f: impl FnMut([i32; 3])) {
-    for leaf in &grid.leaves {
-        for x in 0..8 {
-            for y in 0..8 {
-                for z in 0..8 {
-                    if leaf.is_active(vdb::VdbLeaf::offset(x, y, z)) {
-                        let o = leaf.origin;
-                        f([o[0] + x as i32, o[1] + y as i32, o[2] + z as i32]);
-                    }
-                }
-            }
-        }
-    }
-    for tile in grid.tiles.iter().filter(|t| t.active) {
-        let o = tile.origin;
-        for x in 0..tile.size {
-            for y in 0..tile.size {
-                for z in 0..tile.size {
-                    f([o[0] + x, o[1] + y, o[2] + z]);
-                }
-            }
-        }
-    }
 }
 
 /// One line of standard output that holds numbers.
@@ -555,10 +478,12 @@ mod tests {
         std::fs::create_dir_all(&b).unwrap();
         std::fs::write(a.join("out_1.txt"), "").unwrap();
         std::fs::write(b.join("out_2.txt"), "").unwrap();
-        let err = compare(&a, "", &b, "").unwrap_err();
+        let found = compare(&a, "", &b, "");
+        let err = found.problems.join("; ");
         assert!(
             err.contains("did not write out_2.txt") && err.contains("wrote out_1.txt"),
             "{err}"
         );
+        assert!(found.measures.is_empty());
     }
 }

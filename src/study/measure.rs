@@ -18,6 +18,8 @@ pub struct Measured {
     pub seconds: f64,
     pub cpu_seconds: f64,
     pub peak_bytes: u64,
+    /// How many runs the times are the medians of.
+    pub runs: u32,
     /// The process's exit code, or `None` when a signal ended it.
     pub exit: Option<i32>,
     pub stdout: String,
@@ -112,6 +114,7 @@ impl Runner {
             seconds,
             cpu_seconds: usage.cpu_seconds,
             peak_bytes: usage.peak_bytes,
+            runs: 1,
             exit: usage.exit,
             stdout: stdout.join().unwrap_or_default(),
             stderr: stderr.join().unwrap_or_default(),

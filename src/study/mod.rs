@@ -10,16 +10,25 @@
 //! usually the expensive run (the finest step, the highest resolution), and a study is often
 //! run again with more settings; the cached one is reused, never rerun.
 //!
+//! Each setting runs `--repeat` times (3 unless told) and its times are the medians; CPU time
+//! (the child's user plus system time from `wait4`) is reported beside wall time, since it is
+//! what other jobs on the machine disturb least.
+//!
 //! Exit codes: 0 when every setting ran and was compared; 1 when the script has errors or some
 //! setting's run failed (the study still finishes the others); 2 for bad usage — unknown
 //! params, values of the wrong type, empty sweeps, a reference that is itself bad usage, or
-//! settings whose outputs cannot be compared with their reference's.
+//! settings some of whose outputs cannot be compared with their reference's (the rest of
+//! their outputs are still compared and reported).
 
+mod axes;
 mod compare;
+mod grids;
+mod labels;
 mod measure;
 mod plan;
 mod plot;
 mod report;
+mod svg;
 
 pub use compare::{Kind, Measure};
 pub use plan::{Assignments, Plan, Setting};
@@ -36,6 +45,8 @@ pub struct StudyArgs {
     pub reference: Vec<(String, String)>,
     pub set: Vec<(String, String)>,
     pub repeat: u32,
+    /// The swept param the Pareto fronts trade (see `Plan::trade`).
+    pub trade: Option<String>,
     pub out: Option<PathBuf>,
     pub threads: Option<u16>,
     pub memory_limit: Option<u64>,
@@ -43,22 +54,26 @@ pub struct StudyArgs {
 
 /// How one setting came out.
 pub enum Outcome {
+    /// Compared in every output that could be; `problems` names those that could not.
     Compared {
         timing: Timing,
         measures: Vec<Measure>,
+        problems: Vec<String>,
     },
     /// The run failed; the reason is its first error line.
     Failed(String),
-    /// The run succeeded but its outputs cannot be compared with the reference's.
+    /// The run succeeded but none of its outputs can be compared with the reference's.
     Incomparable(String),
 }
 
-/// The cost of one setting: medians over `--repeat` runs, and the largest peak.
+/// The cost of one setting: medians over its runs, and the largest peak.
 #[derive(Clone, Copy, Debug)]
 pub struct Timing {
     pub seconds: f64,
     pub cpu_seconds: f64,
     pub peak_bytes: u64,
+    /// How many runs the medians are of.
+    pub runs: u32,
 }
 
 /// One row of the study.
@@ -92,7 +107,14 @@ fn usage(message: String) -> Stop {
 
 fn study(args: &StudyArgs) -> Result<u8, Stop> {
     let (params, fingerprint) = load_script(&args.script)?;
-    let plan = plan::plan(&params, &args.sweeps, &args.reference, &args.set).map_err(usage)?;
+    let plan = plan::plan(
+        &params,
+        &args.sweeps,
+        &args.reference,
+        &args.set,
+        args.trade.as_deref(),
+    )
+    .map_err(usage)?;
     let folder = args.out.clone().unwrap_or_else(|| {
         let stem = args
             .script
@@ -200,28 +222,37 @@ fn study(args: &StudyArgs) -> Result<u8, Stop> {
         let outcome = if !measured.succeeded() {
             Outcome::Failed(measured.failure())
         } else {
-            match compare::compare(
+            let found = compare::compare(
                 &outputs,
                 &measured.stdout,
                 &reference.outputs(),
                 &reference.measured.stdout,
-            ) {
-                Ok(measures) => Outcome::Compared {
+            );
+            if found.measures.is_empty() && !found.problems.is_empty() {
+                Outcome::Incomparable(found.problems.join("; "))
+            } else {
+                Outcome::Compared {
                     timing: Timing {
                         seconds: measured.seconds,
                         cpu_seconds: measured.cpu_seconds,
                         peak_bytes: measured.peak_bytes,
+                        runs: measured.runs,
                     },
-                    measures,
-                },
-                Err(why) => Outcome::Incomparable(why),
+                    measures: found.measures,
+                    problems: found.problems,
+                }
             }
         };
         match &outcome {
             Outcome::Failed(why) => say(&bar, format!("  ✗ {shown}: the run failed ({why})")),
             Outcome::Incomparable(why) => say(&bar, format!("  ✗ {shown}: {why}")),
-            Outcome::Compared { timing, .. } => {
-                say(&bar, format!("  ✓ {shown}: {:.3} s", timing.seconds))
+            Outcome::Compared {
+                timing, problems, ..
+            } => {
+                say(&bar, format!("  ✓ {shown}: {:.3} s", timing.seconds));
+                for why in problems {
+                    say(&bar, format!("    ✗ not compared: {why}"));
+                }
             }
         }
         rows.push(Row {
@@ -235,10 +266,11 @@ fn study(args: &StudyArgs) -> Result<u8, Stop> {
     for (assignments, reference) in &references {
         let m = &reference.measured;
         println!(
-            "reference {}: {:.3} s, {:.3} CPU s, {:.1} MiB",
+            "reference {}: {:.3} s, {:.3} CPU s (medians of {} runs), {:.1} MiB",
             plan::describe(&plan.without_fixed(assignments)),
             m.seconds,
             m.cpu_seconds,
+            m.runs,
             m.peak_bytes as f64 / (1 << 20) as f64
         );
     }
@@ -252,9 +284,11 @@ fn study(args: &StudyArgs) -> Result<u8, Stop> {
         println!("wrote {}", path.display());
     }
 
-    let incomparable = rows
-        .iter()
-        .any(|r| matches!(r.outcome, Outcome::Incomparable(_)));
+    let incomparable = rows.iter().any(|r| match &r.outcome {
+        Outcome::Incomparable(_) => true,
+        Outcome::Compared { problems, .. } => !problems.is_empty(),
+        Outcome::Failed(_) => false,
+    });
     let failed = rows.iter().any(|r| matches!(r.outcome, Outcome::Failed(_)));
     Ok(if incomparable {
         2
@@ -377,6 +411,8 @@ impl Reference {
                 seconds: field("seconds")?.parse().ok()?,
                 cpu_seconds: field("cpu_seconds")?.parse().ok()?,
                 peak_bytes: field("peak_bytes")?.parse().ok()?,
+                // References cached before the count was recorded were run once.
+                runs: field("runs").and_then(|r| r.parse().ok()).unwrap_or(1),
                 exit: Some(0),
                 stdout: std::fs::read_to_string(place.join("stdout.txt")).ok()?,
                 stderr: String::new(),
@@ -404,8 +440,8 @@ impl Reference {
             std::fs::write(
                 place.join(MEASURED),
                 format!(
-                    "seconds={}\ncpu_seconds={}\npeak_bytes={}\n",
-                    measured.seconds, measured.cpu_seconds, measured.peak_bytes
+                    "seconds={}\ncpu_seconds={}\npeak_bytes={}\nruns={}\n",
+                    measured.seconds, measured.cpu_seconds, measured.peak_bytes, measured.runs
                 ),
             )?;
         }
@@ -445,6 +481,7 @@ fn repeated(
     last.seconds = measure::median(&seconds);
     last.cpu_seconds = measure::median(&cpu);
     last.peak_bytes = peak;
+    last.runs = seconds.len() as u32;
     Ok(last)
 }
 

@@ -35,6 +35,8 @@ pub struct Plan {
     /// `--reference` values, applied on top of a setting to make its reference.
     pub reference: Assignments,
     pub settings: Vec<Setting>,
+    /// The sweep the Pareto fronts trade: one front is drawn per setting of the others.
+    pub trade: usize,
 }
 
 impl Plan {
@@ -64,6 +66,21 @@ impl Plan {
             .filter(|(n, v)| !self.fixed.iter().any(|(f, fv)| f == n && fv == v))
             .cloned()
             .collect()
+    }
+
+    /// What tells the Pareto fronts apart: the setting's values of every sweep but `except`,
+    /// as "method=selma" ("" with one sweep). The plots key their colours by it.
+    pub fn group(&self, setting: &Setting, except: usize) -> String {
+        describe(
+            &self
+                .sweeps
+                .iter()
+                .zip(&setting.values)
+                .enumerate()
+                .filter(|(i, _)| *i != except)
+                .map(|(_, (s, v))| (s.name.clone(), v.clone()))
+                .collect::<Vec<_>>(),
+        )
     }
 
     /// "n=4, method=bfecc": a setting as the table and messages show it.
@@ -117,12 +134,20 @@ pub fn split_values(text: &str) -> Vec<String> {
     values
 }
 
-/// Builds the plan and checks every name and value against the script's `params`.
+/// Whether every value of `sweep` is a number: such a sweep is a knob to trade (a step, a
+/// resolution, a frame count), where a sweep of names picks among methods or scenes.
+fn numeric(sweep: &Sweep) -> bool {
+    sweep.values.iter().all(|v| v.trim().parse::<f64>().is_ok())
+}
+
+/// Builds the plan and checks every name and value against the script's `params`. `trade`
+/// names the sweep the Pareto fronts trade; by default the last numeric sweep, else the last.
 pub fn plan(
     params: &[(String, Type)],
     sweeps: &[(String, String)],
     reference: &[(String, String)],
     fixed: &[(String, String)],
+    trade: Option<&str>,
 ) -> Result<Plan, String> {
     let mut parsed = Vec::new();
     for (name, text) in sweeps {
@@ -172,6 +197,16 @@ pub fn plan(
             ));
         }
     }
+    let trade = match trade {
+        Some(name) => parsed.iter().position(|s| s.name == name).ok_or_else(|| {
+            let swept: Vec<&str> = parsed.iter().map(|s| s.name.as_str()).collect();
+            format!(
+                "--trade {name}: the Pareto front trades a swept param; the swept params are: {}",
+                swept.join(", ")
+            )
+        })?,
+        None => parsed.iter().rposition(numeric).unwrap_or(parsed.len() - 1),
+    };
     let mut settings = vec![Setting { values: Vec::new() }];
     for sweep in &parsed {
         settings = settings
@@ -190,6 +225,7 @@ pub fn plan(
         fixed: fixed.to_vec(),
         reference: reference.to_vec(),
         settings,
+        trade,
     })
 }
 
@@ -240,6 +276,7 @@ mod tests {
             &[pair("method", "a,b"), pair("n", "1,2,4")],
             &[pair("method", "fine"), pair("res", "256")],
             &[pair("res", "32")],
+            None,
         )
         .unwrap();
         assert_eq!(plan.settings.len(), 6);
@@ -254,6 +291,29 @@ mod tests {
             vec![pair("res", "256"), pair("method", "fine"), pair("n", "4")]
         );
         assert_eq!(plan.describe(last), "method=b, n=4");
+        // The numeric sweep is traded; the fronts are one per method.
+        assert_eq!(plan.trade, 1);
+        assert_eq!(plan.group(last, plan.trade), "method=b");
+    }
+
+    #[test]
+    fn the_traded_sweep_defaults_to_the_last_numeric_one() {
+        let refs = [pair("res", "256")];
+        let two = [pair("n", "1,2"), pair("method", "a,b")];
+        assert_eq!(plan(&params(), &two, &refs, &[], None).unwrap().trade, 0);
+        assert_eq!(
+            plan(&params(), &two, &refs, &[], Some("method"))
+                .unwrap()
+                .trade,
+            1
+        );
+        let names = [pair("method", "a,b")];
+        assert_eq!(plan(&params(), &names, &refs, &[], None).unwrap().trade, 0);
+        let err = plan(&params(), &two, &refs, &[], Some("res")).unwrap_err();
+        assert!(
+            err.contains("--trade res") && err.contains("n, method"),
+            "{err}"
+        );
     }
 
     #[test]
@@ -267,19 +327,19 @@ mod tests {
     #[test]
     fn bad_names_values_and_empty_sweeps_are_refused() {
         let refs = [pair("n", "64")];
-        let err = plan(&params(), &[pair("nn", "1")], &refs, &[]).unwrap_err();
+        let err = plan(&params(), &[pair("nn", "1")], &refs, &[], None).unwrap_err();
         assert!(err.contains("no param named `nn`") && err.contains("did you mean `n`?"));
-        let err = plan(&params(), &[pair("n", "1,two")], &refs, &[]).unwrap_err();
+        let err = plan(&params(), &[pair("n", "1,two")], &refs, &[], None).unwrap_err();
         assert!(err.contains("--sweep n=two: expected an int"), "{err}");
-        let err = plan(&params(), &[pair("n", "")], &refs, &[]).unwrap_err();
+        let err = plan(&params(), &[pair("n", "")], &refs, &[], None).unwrap_err();
         assert!(err.contains("has no values"), "{err}");
-        let err = plan(&params(), &[pair("n", "1,,2")], &refs, &[]).unwrap_err();
+        let err = plan(&params(), &[pair("n", "1,,2")], &refs, &[], None).unwrap_err();
         assert!(err.contains("value 2 is empty"), "{err}");
-        let err = plan(&params(), &[pair("n", "1")], &[], &[]).unwrap_err();
+        let err = plan(&params(), &[pair("n", "1")], &[], &[], None).unwrap_err();
         assert!(err.contains("--reference"), "{err}");
-        let err = plan(&params(), &[pair("n", "1")], &[pair("n", "x")], &[]).unwrap_err();
+        let err = plan(&params(), &[pair("n", "1")], &[pair("n", "x")], &[], None).unwrap_err();
         assert!(err.contains("--reference n=x"), "{err}");
-        let err = plan(&params(), &[pair("n", "1")], &refs, &[pair("n", "2")]).unwrap_err();
+        let err = plan(&params(), &[pair("n", "1")], &refs, &[pair("n", "2")], None).unwrap_err();
         assert!(err.contains("both swept and fixed"), "{err}");
     }
 }

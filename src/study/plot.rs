@@ -1,17 +1,28 @@
-//! The study's plots, as SVG: each error against time with the Pareto front marked, and each
+//! The study's plots, as SVG: each error against time with the Pareto fronts marked, and each
 //! error against each swept param.
 //!
 //! Errors and times span decades, so both are drawn on log axes; the axes are linear charts
 //! of the base-10 logarithms, labelled with the values, which keeps one chart type for log,
-//! linear and categorical (non-numeric params) axes. Settings whose error is zero or missing
-//! cannot sit on a log axis and are left out of that plot.
+//! linear and categorical (non-numeric params) axes. `plotters` draws the axes; the series,
+//! labels and legend are drawn over them (`svg`).
+//!
+//! The key decisions, each what a reader of several plots relies on:
+//! - A Pareto front is drawn among settings that differ only in the traded param
+//!   (`Plan::trade`): one front per setting of the other swept params, each in its colour, so
+//!   "SELMA at 1 frame" never sits on one front with "gridded at 16 frames".
+//! - Colours are keyed by a series' setting of the other params ("method=selma"), from one
+//!   table per study built from the plan alone, so a method has one colour in every plot
+//!   whichever settings failed or are missing from a plot.
+//! - A setting whose error is exactly 0 cannot sit on a log axis: it is drawn on the axis
+//!   floor with a triangle, and the legend says "exact: error 0".
 
+use super::axes::{AxesSpec, SIZE, axes, log_label, log_or_floor, range, write, y_range};
 use super::compare::Measure;
+use super::svg::{Entry, Marker, Overlay};
 use super::{Outcome, Plan, Row};
-use plotters::prelude::*;
+use plotters::style::RGBColor;
 use std::path::{Path, PathBuf};
 
-const SIZE: (u32, u32) = (760, 500);
 const PALETTE: [RGBColor; 10] = [
     RGBColor(31, 119, 180),
     RGBColor(214, 39, 40),
@@ -21,12 +32,15 @@ const PALETTE: [RGBColor; 10] = [
     RGBColor(23, 190, 207),
     RGBColor(140, 86, 75),
     RGBColor(227, 119, 194),
-    RGBColor(127, 127, 127),
+    RGBColor(23, 55, 94),
     RGBColor(188, 189, 34),
 ];
+/// Grey is kept for what is not a series (dominated settings, exact ones, in the legend).
+const GREY: RGBColor = RGBColor(120, 120, 120);
 
 /// Draws every plot of the study into `folder`; returns the files written.
 pub fn all(folder: &Path, plan: &Plan, rows: &[Row]) -> Result<Vec<PathBuf>, String> {
+    let colours = Colours::of(plan);
     let mut written = Vec::new();
     let names: Vec<String> = super::report::measure_names(rows)
         .into_iter()
@@ -39,12 +53,19 @@ pub fn all(folder: &Path, plan: &Plan, rows: &[Row]) -> Result<Vec<PathBuf>, Str
         .collect();
     for name in &names {
         let path = folder.join(format!("pareto-{}.svg", slug(name)));
-        if pareto(&path, plan, rows, name)? {
+        if pareto(&path, plan, rows, name, &colours)? {
             written.push(path);
         }
         for (index, sweep) in plan.sweeps.iter().enumerate() {
             let path = folder.join(format!("{}-vs-{}.svg", slug(name), slug(&sweep.name)));
-            if against(&path, plan, rows, name, index, &|r| error_of(r, name))? {
+            let plot = Against {
+                plan,
+                rows,
+                name,
+                index,
+                colours: &colours,
+            };
+            if plot.draw(&path, &|r| error_of(r, name))? {
                 written.push(path);
             }
         }
@@ -62,12 +83,50 @@ pub fn all(folder: &Path, plan: &Plan, rows: &[Row]) -> Result<Vec<PathBuf>, Str
     for (label, value) in costs {
         for (index, sweep) in plan.sweeps.iter().enumerate() {
             let path = folder.join(format!("{}-vs-{}.svg", slug(label), slug(&sweep.name)));
-            if against(&path, plan, rows, label, index, value)? {
+            let plot = Against {
+                plan,
+                rows,
+                name: label,
+                index,
+                colours: &colours,
+            };
+            if plot.draw(&path, value)? {
                 written.push(path);
             }
         }
     }
     Ok(written)
+}
+
+/// The colour of every series key a plot of the study can have, from the plan alone. The keys
+/// of one family (the settings of every sweep but one) take the palette in plan order; the
+/// families never share a plot, so they may share colours.
+struct Colours {
+    keys: Vec<(String, usize)>,
+}
+
+impl Colours {
+    fn of(plan: &Plan) -> Colours {
+        let mut keys: Vec<(String, usize)> = Vec::new();
+        for index in 0..plan.sweeps.len() {
+            let mut family = 0;
+            for setting in &plan.settings {
+                let key = plan.group(setting, index);
+                if !keys.iter().any(|(k, _)| *k == key) {
+                    keys.push((key, family));
+                    family += 1;
+                }
+            }
+        }
+        Colours { keys }
+    }
+
+    fn of_key(&self, key: &str) -> RGBColor {
+        match self.keys.iter().find(|(k, _)| k == key) {
+            Some((_, k)) => PALETTE[k % PALETTE.len()],
+            None => GREY,
+        }
+    }
 }
 
 fn measure<'a>(row: &'a Row, name: &str) -> Option<&'a Measure> {
@@ -88,17 +147,27 @@ fn constant(rows: &[Row], name: &str) -> bool {
     first.is_none_or(|f| values.all(|v| v == f))
 }
 
-/// The size of a row's error `name`, where it has one a log axis can show: a signed error the
-/// script printed is drawn by its magnitude.
+/// The size of a row's error `name`, where it has one: a signed error the script printed is
+/// drawn by its magnitude; 0 is drawn on the axis floor.
 fn error_of(row: &Row, name: &str) -> Option<f64> {
     let e = measure(row, name)?.value.abs();
-    (e > 0.0 && e.is_finite()).then_some(e)
+    e.is_finite().then_some(e)
 }
 
 fn seconds(row: &Row) -> Option<f64> {
     match &row.outcome {
         Outcome::Compared { timing, .. } => Some(timing.seconds),
         _ => None,
+    }
+}
+
+/// The legend line of settings with an error of exactly 0.
+fn exact_entry() -> Entry {
+    Entry {
+        colour: GREY,
+        line: false,
+        marker: Some(Marker::Exact),
+        text: String::from("exact: error 0"),
     }
 }
 
@@ -135,275 +204,277 @@ pub fn pareto_front(points: &[(f64, f64)]) -> Vec<usize> {
     front
 }
 
-/// A log axis's label: the value at the logarithm `v`, to two significant digits.
-fn log_label(v: &f64) -> String {
-    let x = 10f64.powf(*v);
-    if (0.01..10000.0).contains(&x) {
-        let decimals = 1 - x.log10().floor() as i32;
-        let scale = 10f64.powi(decimals);
-        let rounded = (x * scale).round() / scale;
-        format!("{rounded:.*}", decimals.max(0) as usize)
-    } else {
-        format!("{x:.1e}")
-    }
+/// One setting on a Pareto plot: log seconds, log error (`None` for 0) and its label.
+struct Point {
+    t: f64,
+    e: Option<f64>,
+    label: String,
 }
 
-/// An axis range around `values` with a margin, never empty.
-fn range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
-    let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| {
-        (l.min(v), h.max(v))
-    });
-    let pad = ((hi - lo) * 0.08).max(0.05);
-    (lo - pad)..(hi + pad)
-}
-
-fn pareto(path: &Path, plan: &Plan, rows: &[Row], name: &str) -> Result<bool, String> {
-    let mut labels = Vec::new();
-    let mut points = Vec::new();
-    for row in rows {
-        if let (Some(t), Some(e)) = (seconds(row), error_of(row, name))
-            && t > 0.0
-        {
-            labels.push(plan.describe(&row.setting));
-            points.push((t.log10(), e.log10()));
-        }
-    }
-    if points.is_empty() {
-        return Ok(false);
-    }
-    let front = pareto_front(&points);
-    let legend_points = points.clone();
-    let root = SVGBackend::new(path, SIZE).into_drawing_area();
-    let fail = |e: &dyn std::fmt::Display| e.to_string();
-    root.fill(&WHITE).map_err(|e| fail(&e))?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(format!("{name} against time"), ("sans-serif", 20))
-        .margin(16)
-        .margin_right(48)
-        .x_label_area_size(44)
-        .y_label_area_size(72)
-        .build_cartesian_2d(
-            range(points.iter().map(|p| p.0)),
-            range(points.iter().map(|p| p.1)),
-        )
-        .map_err(|e| fail(&e))?;
-    chart
-        .configure_mesh()
-        .x_desc("seconds (log)")
-        .y_desc(format!("{name} (log)"))
-        .x_label_formatter(&log_label)
-        .y_label_formatter(&log_label)
-        .light_line_style(WHITE.mix(0.0))
-        .draw()
-        .map_err(|e| fail(&e))?;
-    let grey = RGBColor(150, 150, 150);
-    chart
-        .draw_series(points.iter().map(|p| Circle::new(*p, 4, grey.filled())))
-        .map_err(|e| fail(&e))?
-        .label("setting")
-        .legend(move |(x, y)| Circle::new((x + 10, y), 4, grey.filled()));
-    let line: Vec<(f64, f64)> = front.iter().map(|&i| points[i]).collect();
-    let accent = PALETTE[1];
-    chart
-        .draw_series(LineSeries::new(line.clone(), accent.stroke_width(2)))
-        .map_err(|e| fail(&e))?
-        .label("Pareto front")
-        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], accent.stroke_width(2)));
-    chart
-        .draw_series(line.iter().map(|p| Circle::new(*p, 5, accent.filled())))
-        .map_err(|e| fail(&e))?;
-    chart
-        .draw_series(points.iter().zip(&labels).map(|(p, l)| {
-            EmptyElement::at(*p) + Text::new(l.clone(), (7, -14), ("sans-serif", 11).into_font())
-        }))
-        .map_err(|e| fail(&e))?;
-    finish(&mut chart, &root, &legend_points)?;
-    Ok(true)
-}
-
-/// A chart over log (or position) coordinates on an SVG page.
-type Chart<'a, 'b> = ChartContext<
-    'a,
-    SVGBackend<'b>,
-    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
->;
-
-/// Draws the legend in the corner farthest from the points and writes the page.
-fn finish<'a>(
-    chart: &mut Chart<'a, 'a>,
-    root: &DrawingArea<SVGBackend<'_>, plotters::coord::Shift>,
-    points: &[(f64, f64)],
-) -> Result<(), String> {
-    chart
-        .configure_series_labels()
-        .position(emptiest_corner(points))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()
-        .map_err(|e| e.to_string())?;
-    root.present().map_err(|e| e.to_string())
-}
-
-/// One number of a row, where it has one.
-type RowValue<'a> = dyn Fn(&Row) -> Option<f64> + 'a;
-
-/// `value` (called `name`) against sweep `index`, one line per combination of the other
-/// sweeps' values.
-fn against(
+fn pareto(
     path: &Path,
     plan: &Plan,
     rows: &[Row],
     name: &str,
-    index: usize,
-    value: &RowValue<'_>,
+    colours: &Colours,
 ) -> Result<bool, String> {
-    let sweep = &plan.sweeps[index];
-    if sweep.values.len() < 2 {
-        return Ok(false);
-    }
-    let numbers: Option<Vec<f64>> = sweep.values.iter().map(|v| v.trim().parse().ok()).collect();
-    // A numeric param spanning a factor of four or more is drawn on a log axis, as steps and cell
-    // sizes usually are; other params by their position in the sweep.
-    let axis = match &numbers {
-        Some(n) if n.iter().all(|x| *x > 0.0) => {
-            let (lo, hi) = n
-                .iter()
-                .fold((f64::INFINITY, 0.0f64), |(l, h), x| (l.min(*x), h.max(*x)));
-            if hi / lo >= 10.0 {
-                Axis::Log
-            } else {
-                Axis::Linear
-            }
-        }
-        Some(_) => Axis::Linear,
-        None => Axis::Categories,
-    };
-    let position = |value: &str| -> f64 {
-        let k = sweep.values.iter().position(|v| v == value).unwrap_or(0);
-        match (&axis, &numbers) {
-            (Axis::Log, Some(n)) => n[k].log10(),
-            (Axis::Linear, Some(n)) => n[k],
-            _ => k as f64,
-        }
-    };
-    // Series keyed by the other sweeps' values.
-    let mut series: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
+    let traded = &plan.sweeps[plan.trade];
+    let mut groups: Vec<(String, Vec<Point>)> = Vec::new();
     for row in rows {
-        let Some(e) = value(row) else {
+        let (Some(t), Some(e)) = (seconds(row), error_of(row, name)) else {
             continue;
         };
-        let key = plan
-            .sweeps
-            .iter()
-            .zip(&row.setting.values)
-            .enumerate()
-            .filter(|(i, _)| *i != index)
-            .map(|(_, (s, v))| format!("{}={v}", s.name))
-            .collect::<Vec<_>>()
-            .join(", ");
-        let point = (position(&row.setting.values[index]), e.log10());
-        match series.iter_mut().find(|(k, _)| *k == key) {
+        if t <= 0.0 {
+            continue;
+        }
+        let key = plan.group(&row.setting, plan.trade);
+        let label = if plan.sweeps.len() == 1 {
+            plan.describe(&row.setting)
+        } else {
+            format!("{}={}", traded.name, row.setting.values[plan.trade])
+        };
+        let point = Point {
+            t: t.log10(),
+            e: log_or_floor(e),
+            label,
+        };
+        match groups.iter_mut().find(|(k, _)| *k == key) {
             Some((_, points)) => points.push(point),
-            None => series.push((key, vec![point])),
+            None => groups.push((key, vec![point])),
         }
     }
-    if series.is_empty() {
+    if groups.is_empty() {
         return Ok(false);
     }
-    let legend_points: Vec<(f64, f64)> = series.iter().flat_map(|(_, p)| p.clone()).collect();
-    let root = SVGBackend::new(path, SIZE).into_drawing_area();
-    let fail = |e: &dyn std::fmt::Display| e.to_string();
-    root.fill(&WHITE).map_err(|e| fail(&e))?;
-    let all = || series.iter().flat_map(|(_, p)| p.iter());
-    let x_range = match axis {
-        Axis::Categories => -0.5..(sweep.values.len() as f64 - 0.5),
-        _ => range(all().map(|p| p.0)),
+    let all = || groups.iter().flat_map(|(_, p)| p.iter());
+    let others: Vec<&str> = plan
+        .sweeps
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| *i != plan.trade)
+        .map(|(_, s)| s.name.as_str())
+        .collect();
+    let caption = if others.is_empty() {
+        format!("{name} against time")
+    } else {
+        format!(
+            "{name} against time: a front over {} per {}",
+            traded.name,
+            others.join(" and ")
+        )
     };
-    let mut chart = ChartBuilder::on(&root)
-        .caption(format!("{name} against {}", sweep.name), ("sans-serif", 20))
-        .margin(16)
-        .margin_right(48)
-        .x_label_area_size(44)
-        .y_label_area_size(72)
-        .build_cartesian_2d(x_range, range(all().map(|p| p.1)))
-        .map_err(|e| fail(&e))?;
-    let categories = sweep.values.clone();
-    let x_label = move |v: &f64| -> String {
-        match axis {
-            Axis::Log => log_label(v),
-            Axis::Linear => format!("{}", (v * 1e6).round() / 1e6),
-            Axis::Categories => {
-                let k = v.round();
-                if (v - k).abs() < 1e-6 && k >= 0.0 && (k as usize) < categories.len() {
-                    categories[k as usize].clone()
-                } else {
-                    String::new()
-                }
+    let axes = axes(AxesSpec {
+        caption,
+        x: range(all().map(|p| p.t)),
+        y: y_range(all().filter_map(|p| p.e)),
+        x_desc: String::from("seconds (log)"),
+        y_desc: format!("{name} (log)"),
+        x_label: &log_label,
+        x_labels: None,
+    })?;
+    let mut overlay = Overlay::new(axes.area, SIZE);
+    let mut entries = Vec::new();
+    let (mut front_labels, mut other_labels) = (Vec::new(), Vec::new());
+    let (mut dominated, mut exact) = (false, false);
+    for (key, points) in &groups {
+        let colour = colours.of_key(key);
+        let scores: Vec<(f64, f64)> = points
+            .iter()
+            .map(|p| (p.t, p.e.unwrap_or(f64::NEG_INFINITY)))
+            .collect();
+        let front = pareto_front(&scores);
+        let line: Vec<(f64, f64)> = front
+            .iter()
+            .map(|&i| axes.pixel(points[i].t, points[i].e))
+            .collect();
+        let mut marks = Vec::new();
+        for (i, p) in points.iter().enumerate() {
+            let at = axes.pixel(p.t, p.e);
+            let kind = if p.e.is_none() {
+                exact = true;
+                Marker::Exact
+            } else if front.contains(&i) {
+                Marker::Filled
+            } else {
+                dominated = true;
+                Marker::Hollow
+            };
+            marks.push((at, kind));
+            if front.contains(&i) {
+                front_labels.push((at, p.label.clone()));
+            } else {
+                other_labels.push((at, p.label.clone()));
             }
         }
-    };
-    let x_desc = match axis {
-        Axis::Log => format!("{} (log)", sweep.name),
-        _ => sweep.name.clone(),
-    };
-    let mut mesh = chart.configure_mesh();
-    mesh.x_desc(x_desc)
-        .y_desc(format!("{name} (log)"))
-        .x_label_formatter(&x_label)
-        .y_label_formatter(&log_label)
-        .light_line_style(WHITE.mix(0.0));
-    if axis == Axis::Categories {
-        mesh.x_labels(sweep.values.len() * 2 + 1);
+        overlay.series(key, colour, &line, &marks);
+        entries.push(Entry {
+            colour,
+            line: true,
+            marker: Some(Marker::Filled),
+            text: if key.is_empty() {
+                String::from("Pareto front")
+            } else {
+                format!("{key}: Pareto front")
+            },
+        });
     }
-    mesh.draw().map_err(|e| fail(&e))?;
-    for (k, (key, points)) in series.iter_mut().enumerate() {
-        points.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let colour = PALETTE[k % PALETTE.len()];
-        let label = if key.is_empty() {
-            name.to_string()
-        } else {
-            key.clone()
-        };
-        chart
-            .draw_series(LineSeries::new(points.clone(), colour.stroke_width(2)))
-            .map_err(|e| fail(&e))?
-            .label(label)
-            .legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
-            });
-        chart
-            .draw_series(points.iter().map(|p| Circle::new(*p, 4, colour.filled())))
-            .map_err(|e| fail(&e))?;
+    if dominated {
+        entries.push(Entry {
+            colour: GREY,
+            line: false,
+            marker: Some(Marker::Hollow),
+            text: String::from("beaten in time and error"),
+        });
     }
-    finish(&mut chart, &root, &legend_points)?;
+    if exact {
+        entries.push(exact_entry());
+    }
+    overlay.legend(&entries);
+    front_labels.extend(other_labels);
+    overlay.labels(&front_labels);
+    write(path, &axes, overlay)?;
     Ok(true)
 }
 
-/// The corner of the plot with the fewest points near it, for the legend.
-fn emptiest_corner(points: &[(f64, f64)]) -> SeriesLabelPosition {
-    let x = range(points.iter().map(|p| p.0));
-    let y = range(points.iter().map(|p| p.1));
-    let near = |right: bool, top: bool| {
-        points
-            .iter()
-            .filter(|p| {
-                let u = (p.0 - x.start) / (x.end - x.start);
-                let v = (p.1 - y.start) / (y.end - y.start);
-                (if right { u > 0.55 } else { u < 0.45 }) && (if top { v > 0.6 } else { v < 0.4 })
-            })
-            .count()
-    };
-    let corners = [
-        (near(true, true), SeriesLabelPosition::UpperRight),
-        (near(false, true), SeriesLabelPosition::UpperLeft),
-        (near(true, false), SeriesLabelPosition::LowerRight),
-        (near(false, false), SeriesLabelPosition::LowerLeft),
-    ];
-    corners
-        .into_iter()
-        .min_by_key(|(count, _)| *count)
-        .map(|(_, corner)| corner)
-        .unwrap_or(SeriesLabelPosition::UpperRight)
+/// A point of a line plot: the param's position, and the log of the value (`None` for 0).
+type LinePoint = (f64, Option<f64>);
+
+/// One number of a row, where it has one.
+type RowValue<'a> = dyn Fn(&Row) -> Option<f64> + 'a;
+
+/// A value (called `name`) against sweep `index`, one series per setting of the other sweeps.
+struct Against<'a> {
+    plan: &'a Plan,
+    rows: &'a [Row],
+    name: &'a str,
+    index: usize,
+    colours: &'a Colours,
+}
+
+impl Against<'_> {
+    fn draw(&self, path: &Path, value: &RowValue<'_>) -> Result<bool, String> {
+        let (plan, name, index) = (self.plan, self.name, self.index);
+        let sweep = &plan.sweeps[index];
+        if sweep.values.len() < 2 {
+            return Ok(false);
+        }
+        let numbers: Option<Vec<f64>> =
+            sweep.values.iter().map(|v| v.trim().parse().ok()).collect();
+        // A numeric param spanning a factor of ten or more is drawn on a log axis, as steps
+        // and cell sizes usually are; other params by their position in the sweep.
+        let axis = match &numbers {
+            Some(n) if n.iter().all(|x| *x > 0.0) => {
+                let (lo, hi) = n
+                    .iter()
+                    .fold((f64::INFINITY, 0.0f64), |(l, h), x| (l.min(*x), h.max(*x)));
+                if hi / lo >= 10.0 {
+                    Axis::Log
+                } else {
+                    Axis::Linear
+                }
+            }
+            Some(_) => Axis::Linear,
+            None => Axis::Categories,
+        };
+        let position = |value: &str| -> f64 {
+            let k = sweep.values.iter().position(|v| v == value).unwrap_or(0);
+            match (&axis, &numbers) {
+                (Axis::Log, Some(n)) => n[k].log10(),
+                (Axis::Linear, Some(n)) => n[k],
+                _ => k as f64,
+            }
+        };
+        // Series keyed by the other sweeps' values; `None` is an exact 0.
+        let mut series: Vec<(String, Vec<LinePoint>)> = Vec::new();
+        for row in self.rows {
+            let Some(v) = value(row) else {
+                continue;
+            };
+            let key = plan.group(&row.setting, index);
+            let point = (position(&row.setting.values[index]), log_or_floor(v));
+            match series.iter_mut().find(|(k, _)| *k == key) {
+                Some((_, points)) => points.push(point),
+                None => series.push((key, vec![point])),
+            }
+        }
+        if series.is_empty() {
+            return Ok(false);
+        }
+        let all = || series.iter().flat_map(|(_, p)| p.iter());
+        let x = match axis {
+            Axis::Categories => -0.5..(sweep.values.len() as f64 - 0.5),
+            _ => range(all().map(|p| p.0)),
+        };
+        let categories = sweep.values.clone();
+        let x_label = move |v: &f64| -> String {
+            match axis {
+                Axis::Log => log_label(v),
+                Axis::Linear => format!("{}", (v * 1e6).round() / 1e6),
+                Axis::Categories => {
+                    let k = v.round();
+                    if (v - k).abs() < 1e-6 && k >= 0.0 && (k as usize) < categories.len() {
+                        categories[k as usize].clone()
+                    } else {
+                        String::new()
+                    }
+                }
+            }
+        };
+        let axes = axes(AxesSpec {
+            caption: format!("{name} against {}", sweep.name),
+            x,
+            y: y_range(all().filter_map(|p| p.1)),
+            x_desc: match axis {
+                Axis::Log => format!("{} (log)", sweep.name),
+                _ => sweep.name.clone(),
+            },
+            y_desc: format!("{name} (log)"),
+            x_label: &x_label,
+            x_labels: (axis == Axis::Categories).then_some(sweep.values.len() * 2 + 1),
+        })?;
+        let mut overlay = Overlay::new(axes.area, SIZE);
+        let mut entries = Vec::new();
+        let mut exact = false;
+        for (key, points) in series.iter_mut() {
+            points.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let colour = self.colours.of_key(key);
+            // The line joins the values a log axis can show; exact zeros sit on the floor.
+            let line: Vec<(f64, f64)> = points
+                .iter()
+                .filter(|p| p.1.is_some())
+                .map(|p| axes.pixel(p.0, p.1))
+                .collect();
+            let marks: Vec<((f64, f64), Marker)> = points
+                .iter()
+                .map(|p| {
+                    let kind = if p.1.is_some() {
+                        Marker::Filled
+                    } else {
+                        exact = true;
+                        Marker::Exact
+                    };
+                    (axes.pixel(p.0, p.1), kind)
+                })
+                .collect();
+            overlay.series(key, colour, &line, &marks);
+            entries.push(Entry {
+                colour,
+                line: true,
+                marker: Some(Marker::Filled),
+                text: if key.is_empty() {
+                    name.to_string()
+                } else {
+                    key.clone()
+                },
+            });
+        }
+        if exact {
+            entries.push(exact_entry());
+        }
+        overlay.legend(&entries);
+        write(path, &axes, overlay)?;
+        Ok(true)
+    }
 }
 
 #[derive(Clone, Copy, PartialEq)]

@@ -1,9 +1,12 @@
 //! The study's table on the terminal and its `study.csv`.
 //!
 //! The CSV has one row per setting and every measure as a column (absent measures, and every
-//! measure of a failed setting, are empty; the `status` column says why). The terminal table
-//! shows the columns a reader compares first: for images RMSE, PSNR and SSIM, for grids RMSE
-//! and the largest error, for printed numbers the value and the relative error.
+//! measure of a failed setting, are empty; the `status` column says why: `ok`, `partial: ...`
+//! naming the outputs that could not be compared, or `failed: ...`). `runs` is how many runs
+//! the median times are of, and `notes` says which grids were resampled onto the reference's
+//! voxels. The terminal table shows the columns a reader compares first: for images RMSE, PSNR
+//! and SSIM, for grids RMSE and the largest error, for printed numbers the value and the
+//! relative error; a resampled grid's cells carry a † explained under the table.
 
 use super::compare::{Kind, Measure};
 use super::{Outcome, Plan, Row};
@@ -68,10 +71,25 @@ pub fn table(plan: &Plan, rows: &[Row]) -> String {
     header.extend(names.iter().map(|(n, _)| n.clone()));
     let mut lines: Vec<Vec<String>> = Vec::new();
     let mut notes = Vec::new();
+    let mut resampled = false;
+    let mut runs: Vec<u32> = Vec::new();
     for row in rows {
         let mut line: Vec<String> = row.setting.values.clone();
         match &row.outcome {
-            Outcome::Compared { timing, measures } => {
+            Outcome::Compared {
+                timing,
+                measures,
+                problems,
+            } => {
+                if !runs.contains(&timing.runs) {
+                    runs.push(timing.runs);
+                }
+                for why in problems {
+                    notes.push(format!(
+                        "{}: not compared: {why}",
+                        plan.describe(&row.setting)
+                    ));
+                }
                 line.push(format!("{:.3}", timing.seconds));
                 line.push(format!("{:.3}", timing.cpu_seconds));
                 line.push(format!(
@@ -81,7 +99,11 @@ pub fn table(plan: &Plan, rows: &[Row]) -> String {
                 for (name, kind) in &names {
                     line.push(
                         find(measures, name)
-                            .map(|m| cell(m.value, *kind, name))
+                            .map(|m| {
+                                resampled |= m.resampled;
+                                let mark = if m.resampled { " †" } else { "" };
+                                cell(m.value, *kind, name) + mark
+                            })
                             .unwrap_or_default(),
                     );
                 }
@@ -125,11 +147,27 @@ pub fn table(plan: &Plan, rows: &[Row]) -> String {
     for line in &lines {
         out.push_str(&format_line(line));
     }
+    runs.sort_unstable();
+    if !runs.is_empty() {
+        let counts: Vec<String> = runs.iter().map(u32::to_string).collect();
+        out.push_str(&format!(
+            "  seconds and CPU s: medians of {} runs per setting (wall time, and user plus system \
+             time of the run's process)\n",
+            counts.join(" or ")
+        ));
+    }
+    if resampled {
+        out.push_str(&format!("  † {RESAMPLED}\n"));
+    }
     for note in notes {
         out.push_str(&format!("  {note}\n"));
     }
     out
 }
+
+/// What a † in the table means.
+const RESAMPLED: &str = "the run's grid is on other voxels than the reference's: it was resampled \
+                         onto the reference's voxels (trilinear, in world space)";
 
 /// A CSV field, quoted when it holds a comma, a quote or a line break.
 fn field(text: &str) -> String {
@@ -143,7 +181,17 @@ fn field(text: &str) -> String {
 pub fn csv(plan: &Plan, rows: &[Row]) -> String {
     let names = measure_names(rows);
     let mut header: Vec<String> = plan.sweeps.iter().map(|s| s.name.clone()).collect();
-    header.extend(["status", "seconds", "cpu_seconds", "peak_mib"].map(String::from));
+    header.extend(
+        [
+            "status",
+            "runs",
+            "seconds",
+            "cpu_seconds",
+            "peak_mib",
+            "notes",
+        ]
+        .map(String::from),
+    );
     header.extend(names.iter().map(|(n, _)| n.clone()));
     let mut out = header
         .iter()
@@ -154,11 +202,38 @@ pub fn csv(plan: &Plan, rows: &[Row]) -> String {
     for row in rows {
         let mut cells: Vec<String> = row.setting.values.iter().map(|v| field(v)).collect();
         match &row.outcome {
-            Outcome::Compared { timing, measures } => {
-                cells.push(String::from("ok"));
+            Outcome::Compared {
+                timing,
+                measures,
+                problems,
+            } => {
+                cells.push(if problems.is_empty() {
+                    String::from("ok")
+                } else {
+                    field(&format!("partial: {}", problems.join("; ")))
+                });
+                cells.push(format!("{}", timing.runs));
                 cells.push(format!("{}", timing.seconds));
                 cells.push(format!("{}", timing.cpu_seconds));
                 cells.push(format!("{}", timing.peak_bytes as f64 / (1 << 20) as f64));
+                let grids: Vec<&str> = measures
+                    .iter()
+                    .filter(|m| m.resampled)
+                    .filter_map(|m| m.name.rsplit_once(' ').map(|(grid, _)| grid))
+                    .fold(Vec::new(), |mut all, g| {
+                        if !all.contains(&g) {
+                            all.push(g);
+                        }
+                        all
+                    });
+                cells.push(if grids.is_empty() {
+                    String::new()
+                } else {
+                    field(&format!(
+                        "{} resampled onto the reference's voxels",
+                        grids.join(" and ")
+                    ))
+                });
                 for (name, _) in &names {
                     cells.push(
                         find(measures, name)
@@ -169,7 +244,7 @@ pub fn csv(plan: &Plan, rows: &[Row]) -> String {
             }
             Outcome::Failed(why) | Outcome::Incomparable(why) => {
                 cells.push(field(&format!("failed: {why}")));
-                cells.extend(std::iter::repeat_n(String::new(), 3 + names.len()));
+                cells.extend(std::iter::repeat_n(String::new(), 5 + names.len()));
             }
         }
         out.push_str(&cells.join(","));
@@ -191,6 +266,7 @@ mod tests {
             &[(String::from("v"), String::from("(1,2,3),(4,5,6)"))],
             &[(String::from("v"), String::from("(0,0,0)"))],
             &[],
+            None,
         )
         .unwrap();
         let rows = vec![
@@ -203,12 +279,15 @@ mod tests {
                         seconds: 1.5,
                         cpu_seconds: 2.5,
                         peak_bytes: 3 << 20,
+                        runs: 3,
                     },
                     measures: vec![Measure {
                         name: String::from("x rel"),
                         value: 0.25,
                         kind: Kind::Error,
+                        resampled: false,
                     }],
+                    problems: Vec::new(),
                 },
             },
             Row {
@@ -220,16 +299,19 @@ mod tests {
         ];
         let text = csv(&plan, &rows);
         let lines: Vec<&str> = text.lines().collect();
-        assert_eq!(lines[0], "v,status,seconds,cpu_seconds,peak_mib,x rel");
-        assert_eq!(lines[1], "\"(1,2,3)\",ok,1.5,2.5,3,0.25");
+        assert_eq!(
+            lines[0],
+            "v,status,runs,seconds,cpu_seconds,peak_mib,notes,x rel"
+        );
+        assert_eq!(lines[1], "\"(1,2,3)\",ok,3,1.5,2.5,3,,0.25");
         assert_eq!(
             lines[2],
-            "\"(4,5,6)\",\"failed: exit 1: error: \"\"x\"\", oops\",,,,"
+            "\"(4,5,6)\",\"failed: exit 1: error: \"\"x\"\", oops\",,,,,,"
         );
         assert_eq!(lines.len(), 3);
         let shown = table(&plan, &rows);
         assert!(
-            shown.contains("2.500e-1") && shown.contains("failed"),
+            shown.contains("2.500e-1") && shown.contains("failed") && shown.contains("of 3 runs"),
             "{shown}"
         );
     }
