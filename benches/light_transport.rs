@@ -115,6 +115,7 @@ fn main() {
         color: None,
         emission: None,
         holdout: None,
+        velocity: None,
         camera: Camera::new(EYE, DVec3::ZERO, DVec3::Y, 35.0).expect("camera"),
         lights: vec![Light::distant(SUN, DVec3::splat(3.0)).expect("light")],
     };

@@ -254,6 +254,7 @@ fn end_to_end(dots: usize) {
         color: None,
         emission: Some(&emission),
         holdout: None,
+        velocity: None,
         camera,
         lights: Vec::new(),
     };

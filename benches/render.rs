@@ -84,6 +84,7 @@ fn main() {
         color: None,
         emission: None,
         holdout: None,
+        velocity: None,
         camera,
         lights: vec![light.clone()],
     };

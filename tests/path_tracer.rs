@@ -179,6 +179,7 @@ fn felt_render(s: &PeerScene) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
         color: None,
         emission: None,
         holdout: None,
+        velocity: None,
         camera: Camera::new(eye, lookat, up, fov).unwrap(),
         lights: vec![Light::distant(s.sun.0, s.sun.1).unwrap()],
     };

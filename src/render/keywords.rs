@@ -13,6 +13,7 @@
 //! The table stays below the interpreter: values arrive as [`Setting`]s, converted by the
 //! builtin according to each row's [`KeywordType`].
 
+use super::motion::ShutterPosition;
 use super::settings::{Adaptive, Aovs, Integrator, MAX_BOUNCES, MultiScatter, Shadows};
 use super::tonemap::ToneMap;
 use super::transmittance::TransmissivityMethod;
@@ -41,6 +42,8 @@ pub enum KeywordType {
     Domain,
     /// A scalar field: an input of the scene, not a setting (the builtin reads it itself).
     ScalarField,
+    /// A vector field, an input of the scene like `ScalarField`.
+    VectorField,
 }
 
 impl KeywordType {
@@ -56,6 +59,7 @@ impl KeywordType {
             KeywordType::Strings => &["string[]"],
             KeywordType::Domain => &["domain"],
             KeywordType::ScalarField => &["scalarfield"],
+            KeywordType::VectorField => &["vectorfield"],
         }
     }
 
@@ -73,6 +77,7 @@ impl KeywordType {
             KeywordType::Strings => "string[]",
             KeywordType::Domain => "domain",
             KeywordType::ScalarField => "scalarfield",
+            KeywordType::VectorField => "vectorfield",
         }
     }
 }
@@ -148,6 +153,8 @@ pub struct RenderOptions {
     brightness: Option<f64>,
     gamma: Option<f64>,
     adaptive: bool,
+    /// Whether the call gave a velocity (motion blur); the builtin says so.
+    pub motion: bool,
     given: Vec<&'static str>,
 }
 
@@ -162,6 +169,7 @@ impl Default for RenderOptions {
             brightness: None,
             gamma: None,
             adaptive: false,
+            motion: false,
             given: Vec::new(),
         }
     }
@@ -172,9 +180,13 @@ impl RenderOptions {
     /// (`None` when it was not given). Rows apply in the table's order, then the rules
     /// between keywords are checked.
     pub fn from_keywords(
+        motion: bool,
         mut value: impl FnMut(&Keyword) -> Outcome<Option<Setting>>,
     ) -> Outcome<RenderOptions> {
-        let mut options = RenderOptions::default();
+        let mut options = RenderOptions {
+            motion,
+            ..RenderOptions::default()
+        };
         for keyword in KEYWORDS {
             let Some(apply) = keyword.apply else { continue };
             if let Some(setting) = value(keyword)? {
@@ -201,7 +213,13 @@ impl RenderOptions {
             })?;
             s.adaptive = Some(Adaptive::around(step));
         }
-        if s.integrator == Integrator::March && (self.given("bounces") || self.given("sky")) {
+        if !self.motion && (self.given("shutter") || self.given("shutterposition")) {
+            return Err(Failure::new("shutter and shutterposition need a velocity")
+                .with_help("pass velocity = the medium's velocity field (world units per frame)"));
+        }
+        if self.settings.integrator == Integrator::March
+            && (self.given("bounces") || self.given("sky"))
+        {
             return Err(Failure::new("bounces and sky belong to the path tracer")
                 .with_help("add integrator = \"path\""));
         }
@@ -695,6 +713,39 @@ pub const KEYWORDS: &[Keyword] = &[
             Ok(())
         }),
     },
+    Keyword {
+        name: "velocity",
+        kind: KeywordType::VectorField,
+        default: "none (no motion blur)",
+        choices: None,
+        aliases: &["vel", "v"],
+        doc: "motion blur: the medium's velocity in world units per frame",
+        apply: None,
+    },
+    Keyword {
+        name: "shutter",
+        kind: KeywordType::Float,
+        default: "0.5",
+        choices: None,
+        aliases: &["shutter_length", "motionblur"],
+        doc: "motion blur: how long the shutter is open, in frames (0 to 1000)",
+        apply: Some(|o, v| {
+            o.settings.shutter = v.float();
+            Ok(())
+        }),
+    },
+    Keyword {
+        name: "shutterposition",
+        kind: KeywordType::Str,
+        default: "`\"center\"`",
+        choices: Some(("shutter position", &["start", "center", "end"])),
+        aliases: &["shutter_position"],
+        doc: "motion blur: where the shutter opens relative to the frame",
+        apply: Some(|o, v| {
+            o.settings.shutter_position = ShutterPosition::parse(v.text())?;
+            Ok(())
+        }),
+    },
 ];
 
 #[cfg(test)]
@@ -728,7 +779,7 @@ mod tests {
     #[test]
     fn rules_between_keywords_hold_whatever_the_call_order() {
         let given = |pairs: Vec<(&'static str, Setting)>| {
-            RenderOptions::from_keywords(|k| {
+            RenderOptions::from_keywords(false, |k| {
                 Ok(pairs
                     .iter()
                     .find(|(name, _)| *name == k.name)

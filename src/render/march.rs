@@ -124,6 +124,8 @@ pub struct Frame<'a> {
     pub step: f64,
     /// AOV values per pixel, see `aov_layout`.
     pub aov_count: usize,
+    /// Motion blur: each ray's samples are shifted to where the medium was at its time.
+    pub motion: Option<&'a super::motion::Motion<'a>>,
 }
 
 /// Per-block scratch.
@@ -148,6 +150,9 @@ struct Block {
     columns: Vec<f64>,
     /// Per light, per dense sample.
     scattered: Vec<DVec3>,
+    /// Motion blur: each sample's ray time, and the velocity at the samples.
+    times: Vec<f64>,
+    velocity: Vec<f64>,
 }
 
 /// One worker's evaluators and scratch space, reused across its tiles.
@@ -156,6 +161,7 @@ pub struct Worker<'a> {
     color: Option<Box<dyn BlockEval + 'a>>,
     emission: Option<Box<dyn BlockEval + 'a>>,
     holdout: Option<Box<dyn BlockEval + 'a>>,
+    velocity: Option<Box<dyn BlockEval + 'a>>,
     rays: Rays,
     block: Block,
     shadow: ColumnScratch,
@@ -170,6 +176,7 @@ impl<'a> Worker<'a> {
             color: frame.color.map(|f| f.evaluator()),
             emission: frame.emission.map(|f| f.evaluator()),
             holdout: frame.holdout.map(|f| f.evaluator()),
+            velocity: frame.motion.map(|m| m.evaluator()),
             rays: Rays::default(),
             block: Block::default(),
             shadow: ColumnScratch::default(),
@@ -283,6 +290,22 @@ impl<'a> Worker<'a> {
             b.xs.push(p.x);
             b.ys.push(p.y);
             b.zs.push(p.z);
+        }
+        if let Some(velocity) = self.velocity.as_mut() {
+            // Every input is read where the medium was at the ray's time.
+            b.times.clear();
+            b.times.extend(b.ray.iter().map(|&r| self.rays.time[r]));
+            super::motion::Motion::shift(
+                velocity.as_mut(),
+                &mut b.xs,
+                &mut b.ys,
+                &mut b.zs,
+                &b.times,
+                &mut b.velocity,
+            );
+            for k in 0..n {
+                b.position[k] = DVec3::new(b.xs[k], b.ys[k], b.zs[k]);
+            }
         }
         stats.samples += n as u64;
         b.density.resize(n, 0.0);

@@ -25,6 +25,7 @@ pub mod keywords;
 pub mod light;
 mod lighting;
 mod march;
+pub mod motion;
 pub mod path;
 pub mod phase;
 pub mod progress;
@@ -55,6 +56,7 @@ pub use transmittance::{TransmissivityMethod, transmissivity};
 use crate::diagnostic::{grouped, vector_text};
 use crate::failure::{Failure, Outcome};
 use crate::sample::{Aabb, FieldSampler};
+use glam::DVec3;
 use lighting::Illumination;
 use march::{Frame, Worker, tile_side};
 use progress::Progress;
@@ -79,6 +81,8 @@ pub struct Scene<'a> {
     pub emission: Option<&'a dyn FieldSampler>,
     /// Holdout transmittance (width 1): how visible each point is to the camera, 1 = fully.
     pub holdout: Option<&'a dyn FieldSampler>,
+    /// Velocity (width 3, world units per frame) for motion blur over `RenderSettings::shutter`.
+    pub velocity: Option<&'a dyn FieldSampler>,
     pub camera: Camera,
     pub lights: Vec<Light>,
 }
@@ -210,7 +214,32 @@ pub fn render_with_stats(
             check_width(what, f, width)?;
         }
     }
-    let bounds = march_box(scene, settings)?;
+    if let Some(v) = scene.velocity {
+        check_width("velocity", v, 3)?;
+    }
+    let still = march_box(scene, settings)?;
+    // Under motion blur the box widens by how far the medium moves in the shutter.
+    let (open, close) = settings.shutter_interval();
+    let motion = match scene.velocity {
+        Some(v) => Some(motion::Motion::new(v, open, close, &still)?),
+        None => None,
+    };
+    let reach = motion.as_ref().map_or(DVec3::ZERO, |m| m.reach);
+    let bounds = Aabb::new(still.min - reach, still.max + reach);
+    let swept_density = motion::Swept {
+        inner: scene.density,
+        reach,
+    };
+    let swept_emission = scene.emission.map(|e| motion::Swept { inner: e, reach });
+    let seen_density: &dyn FieldSampler = if motion.is_some() {
+        &swept_density
+    } else {
+        scene.density
+    };
+    let seen_emission: Option<&dyn FieldSampler> = match (&motion, &swept_emission) {
+        (Some(_), Some(e)) => Some(e),
+        _ => scene.emission,
+    };
     if settings.integrator == Integrator::Path {
         let channels = path::aov_names(settings).len();
         let bytes = settings.width as f64 * settings.height as f64 * (16.0 + 4.0 * channels as f64);
@@ -223,7 +252,14 @@ pub fn render_with_stats(
                 4 + channels
             ),
         )?;
-        return path::render(scene, settings, bounds);
+        return path::render(
+            scene,
+            settings,
+            bounds,
+            motion.as_ref(),
+            seen_density,
+            seen_emission,
+        );
     }
     let step = settings.step.unwrap_or(bounds.size().max_element() / 256.0);
     let smallest = settings.adaptive.map_or(step, |a| a.min_step.min(step));
@@ -262,7 +298,7 @@ pub fn render_with_stats(
     let started = Instant::now();
     let illumination = Illumination::new(scene.density, &scene.lights, settings, bounds, step)?;
     let shadow_seconds = started.elapsed().as_secs_f64();
-    let occupancy = Occupancy::build(scene.density, scene.emission, bounds, step);
+    let occupancy = Occupancy::build(seen_density, seen_emission, bounds, step);
     let frame = Frame {
         density: scene.density,
         color: scene.color,
@@ -276,6 +312,7 @@ pub fn render_with_stats(
         settings,
         step,
         aov_count: aov_names.len(),
+        motion: motion.as_ref(),
     };
     let side = tile_side(settings.spp);
     // Under `--tile I/N` only the band's rows are marched; band edges fall on tile edges.

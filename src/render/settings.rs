@@ -164,6 +164,16 @@ pub struct RenderSettings {
     /// Path tracer: radiance of a uniform sky around the render box, seen by every path that
     /// leaves the box after scattering (so it is shadowed by the medium).
     pub sky: DVec3,
+    /// Motion blur (with a velocity): the shutter's length in frames and where it opens.
+    pub shutter: f64,
+    pub shutter_position: super::motion::ShutterPosition,
+}
+
+impl RenderSettings {
+    /// The shutter's open and close times in frames, around the frame at 0.
+    pub fn shutter_interval(&self) -> (f64, f64) {
+        self.shutter_position.interval(self.shutter)
+    }
 }
 
 impl Default for RenderSettings {
@@ -188,6 +198,8 @@ impl Default for RenderSettings {
             integrator: Integrator::March,
             bounces: 64,
             sky: DVec3::ZERO,
+            shutter: 0.5,
+            shutter_position: super::motion::ShutterPosition::Center,
         }
     }
 }
@@ -239,6 +251,13 @@ impl RenderSettings {
                     "step is a world-space length, e.g. 0.01 for a scene a few units across",
                 )
             })?;
+        }
+        if !(self.shutter.is_finite() && (0.0..=1e3).contains(&self.shutter)) {
+            return Err(Failure::new(format!(
+                "shutter must be between 0 and 1000 frames, got {}",
+                self.shutter
+            ))
+            .with_help("shutter is the exposure in frames: 0.5 is a 180° film shutter"));
         }
         if !self.kappa.is_finite() || self.kappa.min_element() < 0.0 {
             return Err(Failure::new(format!(

@@ -100,6 +100,8 @@ pub struct Rays {
     pub h: Vec<f64>,
     pub fresh: Vec<bool>,
     pub u: Vec<f64>,
+    /// Each ray's time in the shutter (motion blur only).
+    pub time: Vec<f64>,
     pub transmittance: Vec<DVec3>,
     pub color: Vec<DVec3>,
     pub emitted: Vec<DVec3>,
@@ -158,6 +160,7 @@ impl Rays {
         r.run_end.clear();
         r.t.clear();
         r.u.clear();
+        r.time.clear();
         for py in 0..h {
             for px in 0..w {
                 let (x, y) = (x0 + px, y0 + py);
@@ -188,6 +191,9 @@ impl Rays {
                     r.origin.push(ray.origin);
                     r.direction.push(ray.direction);
                     r.u.push(jitter(s.seed, pixel, sample, 2));
+                    if let Some(motion) = frame.motion {
+                        r.time.push(motion.time(s.seed, pixel, sample));
+                    }
                 }
             }
         }

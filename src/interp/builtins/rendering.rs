@@ -157,7 +157,7 @@ fn setting(a: &Args, keyword: &Keyword) -> Outcome<Option<Setting>> {
             Value::Domain(d) => Setting::Box(d.bounds()),
             _ => return Ok(None),
         },
-        KeywordType::ScalarField => return Ok(None),
+        KeywordType::ScalarField | KeywordType::VectorField => return Ok(None),
     }))
 }
 
@@ -189,7 +189,8 @@ fn run_render(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
             .collect::<Outcome<_>>()?,
         _ => Vec::new(),
     };
-    let options = RenderOptions::from_keywords(|keyword| setting(&a, keyword))?;
+    let velocity = opt_field(&a, "velocity")?;
+    let options = RenderOptions::from_keywords(velocity.is_some(), |keyword| setting(&a, keyword))?;
     let settings = options.settings;
     let scene = Scene {
         density: &density,
@@ -200,6 +201,9 @@ fn run_render(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
             .as_ref()
             .map(|c| c as &dyn crate::sample::FieldSampler),
         holdout: holdout
+            .as_ref()
+            .map(|c| c as &dyn crate::sample::FieldSampler),
+        velocity: velocity
             .as_ref()
             .map(|c| c as &dyn crate::sample::FieldSampler),
         camera,

@@ -31,12 +31,13 @@ mod tests;
 use super::band;
 use super::camera::{Raster, Ray};
 use super::image::Image;
+use super::motion::Motion;
 use super::progress::Progress;
 use super::settings::RenderSettings;
 use super::space::clip_to_box;
 use super::{RenderStats, Scene};
 use crate::failure::{Failure, Outcome};
-use crate::sample::Aabb;
+use crate::sample::{Aabb, FieldSampler};
 use emitters::Emitter;
 use glam::DVec3;
 use majorant::{MAJORANT_CELLS, Majorants};
@@ -69,6 +70,7 @@ struct Frame<'a> {
     majorants: &'a Majorants,
     emitters: Vec<Emitter<'a>>,
     albedo: f64,
+    motion: Option<&'a Motion<'a>>,
 }
 
 /// One row of pixels.
@@ -80,10 +82,16 @@ struct Row {
 }
 
 /// Renders `scene` with the path tracer over `bounds`.
+///
+/// Under motion blur, `bounds` is the box widened by the motion's reach, and the majorants
+/// bound `density` and `emission` as the motion sweeps them (`motion::Swept`).
 pub fn render(
     scene: &Scene,
     settings: &RenderSettings,
     bounds: Aabb,
+    motion: Option<&Motion>,
+    density: &dyn FieldSampler,
+    emission: Option<&dyn FieldSampler>,
 ) -> Outcome<(Image, RenderStats)> {
     if scene.holdout.is_some() {
         return Err(Failure::new("the path tracer does not take a holdout yet")
@@ -97,7 +105,7 @@ pub fn render(
         .with_help("pass spp = 16 or more for a useful estimate"));
     }
     let started = Instant::now();
-    let majorants = Majorants::build(scene.density, scene.emission, bounds, MAJORANT_CELLS)?;
+    let majorants = Majorants::build(density, emission, bounds, MAJORANT_CELLS)?;
     let majorant_seconds = started.elapsed().as_secs_f64();
     let mut emitters: Vec<Emitter> = scene.lights.iter().map(Emitter::Delta).collect();
     if settings.sky != DVec3::ZERO {
@@ -112,6 +120,7 @@ pub fn render(
         emitters,
         // The albedo model always: without `albedo` the medium scatters all it extinguishes.
         albedo: settings.albedo.unwrap_or(1.0),
+        motion,
     };
     let rows = band::rows(settings.height)?;
     let progress = Progress::new(rows.len() as u64);
@@ -188,6 +197,7 @@ impl<'a> Frame<'a> {
             self.majorants,
             self.settings.kappa,
             self.albedo,
+            self.motion,
         )
     }
 
@@ -205,6 +215,9 @@ impl<'a> Frame<'a> {
             let pixel = (y * s.width + x) as u64;
             let (mut sum, mut squares, mut transmitted) = (DVec3::ZERO, DVec3::ZERO, 0.0);
             for sample in 0..spp {
+                if let Some(motion) = self.motion {
+                    medium.time = motion.time(s.seed, pixel, sample as u64);
+                }
                 let mut random = PathRandom::new(s.seed, pixel, sample as u64);
                 let ray = self.raster.ray(x, y, random.uniform(), random.uniform());
                 let (radiance, transmittance) = self.trace(medium, ray, &mut random);

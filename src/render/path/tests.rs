@@ -86,7 +86,7 @@ fn ratio_tracking_of_a_homogeneous_slab_averages_to_beer_lambert() {
     let bounds = Aabb::new(DVec3::new(-1.0, 0.0, -1.0), DVec3::new(1.0, 1.5, 1.0));
     let majorants = Majorants::build(&slab, None, bounds, 8).unwrap();
     let kappa = DVec3::new(0.5, 1.0, 2.0);
-    let mut medium = Medium::new(&slab, None, None, &majorants, kappa, 1.0);
+    let mut medium = Medium::new(&slab, None, None, &majorants, kappa, 1.0, None);
     // Straight up through the slab, and slanted (path length 1.5/cos).
     for direction in [DVec3::Y, DVec3::new(0.3, 1.0, 0.2).normalize()] {
         let ray = Ray {
@@ -107,7 +107,7 @@ fn ratio_tracking_of_a_homogeneous_slab_averages_to_beer_lambert() {
         }
         // Delta tracking with grey κ: the chance of crossing without a collision is the same.
         let grey = DVec3::splat(1.0);
-        let mut medium = Medium::new(&slab, None, None, &majorants, grey, 0.0);
+        let mut medium = Medium::new(&slab, None, None, &majorants, grey, 0.0, None);
         let expected = (-0.8 * length).exp();
         let (mean, error) = mean_and_error(40_000, |i| {
             let mut random = PathRandom::new(9, i as u64, 0);
@@ -179,6 +179,7 @@ fn white_furnace_shows_the_sky_whatever_the_density() {
             color: None,
             emission: None,
             holdout: None,
+            velocity: None,
             camera: front_camera(),
             lights: Vec::new(),
         };
@@ -241,6 +242,7 @@ fn one_bounce_equals_the_marchs_single_scattering() {
             color: Some(&color),
             emission: None,
             holdout: None,
+            velocity: None,
             camera: front_camera(),
             lights: vec![
                 Light::distant(DVec3::new(1.0, -1.0, -0.5), DVec3::splat(3.0)).unwrap(),
@@ -384,6 +386,7 @@ fn the_image_is_the_same_for_any_thread_count() {
         color: None,
         emission: Some(&emission),
         holdout: None,
+        velocity: None,
         camera: front_camera(),
         lights: vec![Light::distant(DVec3::new(0.0, -1.0, -1.0), DVec3::ONE).unwrap()],
     };

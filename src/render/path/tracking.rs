@@ -28,6 +28,13 @@ pub struct Medium<'a> {
     density: Box<dyn BlockEval + 'a>,
     color: Option<Box<dyn BlockEval + 'a>>,
     emission: Option<Box<dyn BlockEval + 'a>>,
+    /// Motion blur: the velocity, and the time in the shutter of the path being traced;
+    /// every point is read where the medium was at that time.
+    velocity: Option<Box<dyn BlockEval + 'a>>,
+    pub time: f64,
+    /// The last point shifted and where it went (density, colour and emission are read at
+    /// one point in turn).
+    shifted: (DVec3, DVec3),
     pub majorants: &'a Majorants,
     pub kappa: DVec3,
     /// `max(κ)`: the majorant of extinction is this times the cell's density bound.
@@ -102,11 +109,15 @@ impl<'a> Medium<'a> {
         majorants: &'a Majorants,
         kappa: DVec3,
         albedo: f64,
+        motion: Option<&super::super::motion::Motion<'a>>,
     ) -> Medium<'a> {
         Medium {
             density: density.evaluator(),
             color: color.map(|c| c.evaluator()),
             emission: emission.map(|e| e.evaluator()),
+            velocity: motion.map(|m| m.evaluator()),
+            time: 0.0,
+            shifted: (DVec3::NAN, DVec3::NAN),
             majorants,
             kappa,
             kappa_max: kappa.max_element(),
@@ -116,8 +127,26 @@ impl<'a> Medium<'a> {
         }
     }
 
+    /// Where the medium at `p` was at the path's time: `p − v(p)·time` (`p` without motion).
+    fn source_of(&mut self, p: DVec3) -> DVec3 {
+        let Some(velocity) = self.velocity.as_mut() else {
+            return p;
+        };
+        if self.shifted.0 == p {
+            return self.shifted.1;
+        }
+        let mut v = [0.0; 3];
+        velocity.eval_f64(&[p.x], &[p.y], &[p.z], &mut v);
+        let v = DVec3::from_array(v);
+        // A velocity that is not finite moves nothing.
+        let q = if v.is_finite() { p - v * self.time } else { p };
+        self.shifted = (p, q);
+        q
+    }
+
     /// The density at `p`, checked against the bound of its cell `bound`.
     fn density_at(&mut self, p: DVec3, bound: f64) -> f64 {
+        let p = self.source_of(p);
         read(
             self.density.as_mut(),
             p,
@@ -133,6 +162,7 @@ impl<'a> Medium<'a> {
     }
 
     fn vector_at(&mut self, which: Field, p: DVec3) -> DVec3 {
+        let p = self.source_of(p);
         let (eval, counts) = match which {
             Field::Color => (self.color.as_mut(), &mut self.counts.color),
             Field::Emission => (self.emission.as_mut(), &mut self.counts.emission),

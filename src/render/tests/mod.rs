@@ -37,6 +37,7 @@ fn scene<'a>(density: &'a dyn FieldSampler, lights: Vec<Light>) -> Scene<'a> {
         color: None,
         emission: None,
         holdout: None,
+        velocity: None,
         camera: looking_down_z(),
         lights,
     }
