@@ -22,16 +22,27 @@ use std::collections::HashMap;
 
 /// Partial derivatives `[d/dx, d/dy, d/dz]` of each root.
 pub fn gradients(roots: &[NodeRef]) -> Outcome<Vec<[NodeRef; 3]>> {
+    gradients_then(roots, 0)
+}
+
+/// `gradients`, when `later` more derivative passes will follow over its result (a
+/// `laplacian` differentiates twice): the memory budget is checked against the growth of all
+/// of them, projected from the rate of this one (`node::check_projected_growth`), so a tower
+/// of derivatives that cannot fit stops before its last level is half built.
+pub fn gradients_then(roots: &[NodeRef], later: u32) -> Outcome<Vec<[NodeRef; 3]>> {
     let order = node::postorder(roots);
     let mut d: HashMap<u64, [NodeRef; 3]> = HashMap::with_capacity(order.len());
     // Kernel nodes: the derivative of each output, per axis.
     let mut kernel_d: HashMap<u64, Vec<[NodeRef; 3]>> = HashMap::new();
     let zero = || node::constant(0.0);
+    let made_before = node::nodes_made();
     for (i, n) in order.iter().enumerate() {
         // Derivatives of derivatives can grow a graph severalfold per level: stop at the
-        // budget rather than when memory runs out.
+        // budget rather than when memory runs out, and as soon as the rate of growth shows
+        // the pass will not fit rather than at its end.
         if i % 1024 == 0 {
             node::check_graph_memory()?;
+            node::check_projected_growth(node::nodes_made() - made_before, i, order.len(), later)?;
         }
         let grad: [NodeRef; 3] = match &n.op {
             Op::Const(_) => [zero(), zero(), zero()],

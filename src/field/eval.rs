@@ -68,6 +68,18 @@ pub struct Evaluator<'p> {
     noise_out64: Vec<f64>,
 }
 
+/// Bytes one evaluator of `program` holds: its registers, the grid kernels' scratch and the
+/// noise buffers, as `Evaluator::new` allocates them. Every worker thread has its own, so a
+/// compiled field charges the budget this figure per thread (`CompiledField::prepared`).
+pub fn evaluator_bytes(program: &Program) -> usize {
+    let f64s = (program.registers + program.grid_scratch.max(1) + NOISE_OUTPUTS) * BLOCK;
+    let f32s = (3 + NOISE_OUTPUTS) * BLOCK;
+    f64s * std::mem::size_of::<f64>() + f32s * std::mem::size_of::<f32>()
+}
+
+/// Outputs a noise kernel writes per point (value and derivatives), the noise buffers' rows.
+const NOISE_OUTPUTS: usize = 10;
+
 impl<'p> Evaluator<'p> {
     pub fn new(program: &'p Program) -> Evaluator<'p> {
         let mut regs = vec![0.0; program.registers * BLOCK];
@@ -79,8 +91,8 @@ impl<'p> Evaluator<'p> {
             regs,
             grid_out: vec![0.0; program.grid_scratch.max(1) * BLOCK],
             noise_in: [vec![0.0; BLOCK], vec![0.0; BLOCK], vec![0.0; BLOCK]],
-            noise_out: vec![0.0; 10 * BLOCK],
-            noise_out64: vec![0.0; 10 * BLOCK],
+            noise_out: vec![0.0; NOISE_OUTPUTS * BLOCK],
+            noise_out64: vec![0.0; NOISE_OUTPUTS * BLOCK],
         }
     }
 
@@ -455,4 +467,37 @@ fn avx2_available() -> bool {
     use std::sync::OnceLock;
     static AVAILABLE: OnceLock<bool> = OnceLock::new();
     *AVAILABLE.get_or_init(|| std::is_x86_feature_detected!("avx2"))
+}
+
+#[cfg(test)]
+mod budget_tests {
+    use super::*;
+    use crate::field::Field;
+    use crate::field::noise::NoiseKind;
+
+    /// The figure a compiled field charges per thread is what an evaluator really allocates:
+    /// each buffer's capacity times the size of its element.
+    #[test]
+    fn evaluator_bytes_are_what_an_evaluator_allocates() {
+        let p = Field::identity();
+        let noisy = Field::noise(NoiseKind::Perlin, 7);
+        let roots: Vec<_> = [p.length().unwrap(), noisy]
+            .iter()
+            .flat_map(|f| f.components().to_vec())
+            .collect();
+        let program = Program::compile(&roots);
+        assert!(program.registers > 3);
+        let evaluator = Evaluator::new(&program);
+        let held = |capacity: usize, element: usize| capacity * element;
+        let allocated = held(evaluator.regs.capacity(), 8)
+            + held(evaluator.grid_out.capacity(), 8)
+            + evaluator
+                .noise_in
+                .iter()
+                .map(|v| held(v.capacity(), 4))
+                .sum::<usize>()
+            + held(evaluator.noise_out.capacity(), 4)
+            + held(evaluator.noise_out64.capacity(), 8);
+        assert_eq!(evaluator_bytes(&program), allocated);
+    }
 }

@@ -510,7 +510,11 @@ pub fn curl(v: &Field) -> Outcome<Field> {
 /// Sum of second derivatives; componentwise for a vectorfield.
 pub fn laplacian(f: &Field) -> Outcome<Field> {
     match f.kind {
-        FieldKind::Scalar => div(&grad(f)?),
+        FieldKind::Scalar => {
+            // The gradient of the gradient: the first pass answers for the budget of both.
+            let g = calculus::gradients_then(&f.components, 1)?;
+            div(&Field::vector(g[0].clone()))
+        }
         FieldKind::Vector => {
             let parts: Outcome<Vec<NodeRef>> = (0..3)
                 .map(|i| Ok(laplacian(&f.component(i)?)?.components[0].clone()))

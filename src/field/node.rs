@@ -21,7 +21,7 @@ use intern::intern;
 use std::fmt;
 use std::sync::Arc;
 
-pub use intern::{check_graph_memory, table_len};
+pub use intern::{check_graph_memory, check_projected_growth, nodes_made, table_len};
 
 /// A shared scalar node.
 pub type NodeRef = Arc<Node>;

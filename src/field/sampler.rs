@@ -31,6 +31,8 @@ pub struct CompiledField {
     grids: Vec<Arc<dyn GridSource>>,
     /// The max, min and select instructions, which a region may decide (`prune`).
     choices: Vec<Index>,
+    /// The budget its worker threads' evaluators take, when it was `prepared` for an output.
+    _evaluators: Option<crate::budget::Reservation>,
 }
 
 impl CompiledField {
@@ -45,6 +47,7 @@ impl CompiledField {
             choices: prune::choices(&ssa),
             intervals: interval::IntervalTape::from_ssa(ssa),
             support: OnceLock::new(),
+            _evaluators: None,
         }
     }
 
@@ -74,8 +77,19 @@ impl CompiledField {
 
     /// Compiled and with its whole-grid solves run: what outputs evaluate.
     pub fn prepared(field: &Field) -> Outcome<CompiledField> {
-        let compiled = CompiledField::new(field);
+        let mut compiled = CompiledField::new(field);
         compiled.prepare()?;
+        // Every worker thread evaluates it with its own registers: a figure known now, so it
+        // is charged before any thread starts (a long tape on many threads is megabytes).
+        let threads = rayon::current_num_threads();
+        let registers = compiled.program.registers;
+        compiled._evaluators = Some(crate::budget::reserve(
+            (threads * crate::field::eval::evaluator_bytes(&compiled.program)) as f64,
+            &format!(
+                "evaluating a field of {registers} registers of {BLOCK} points on each of \
+                 {threads} threads"
+            ),
+        )?);
         Ok(compiled)
     }
 

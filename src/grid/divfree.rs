@@ -76,12 +76,11 @@ impl DivergenceFree {
                 ),
             );
         };
-        let count = cells.iter().product::<usize>();
         // Stored f64 result, the f64 samples being projected, and the transforms' spectra.
         // Checked here, at the fftdivfree line, so a solve too large fails before any work;
         // the solve takes its share of the budget when it runs.
         drop(check_working_memory(
-            count,
+            cells,
             2 * 3 * 8 + PROJECTION_BYTES_PER_CELL,
             "fftdivfree",
         )?);

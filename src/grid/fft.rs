@@ -79,7 +79,8 @@ pub fn gaussian_random_field(
     domain.check_grid_memory(width)?;
     let grid = Grid::new(resolution, domain.cell.to_array())?;
     // The spectra, one scratch copy for a transform pass, and the f32 result.
-    let _working = check_working_memory(grid.len, 16 * (width + 1) + 4 * width, "gaussiannoise")?;
+    let _working =
+        check_working_memory(grid.counts, 16 * (width + 1) + 4 * width, "gaussiannoise")?;
 
     let amplitude = grid.gaussian_amplitude(correlation);
     let mut spectra: Vec<Vec<Complex64>> = (0..width)
@@ -119,17 +120,33 @@ pub fn gaussian_random_field(
     Ok(values)
 }
 
-/// Takes the working memory of a transform over `cells` cells from the run's budget, before
-/// any of it is allocated; held until the returned reservation is dropped.
+/// Takes the working memory of a transform over a grid of `counts` cells from the run's
+/// budget, before any of it is allocated; held until the returned reservation is dropped.
+/// Besides `bytes_per_cell` of every cell it counts what the passes hold per worker thread
+/// and the plans (`transform_scratch_bytes`).
 pub fn check_working_memory(
-    cells: usize,
+    counts: [usize; 3],
     bytes_per_cell: usize,
     what: &str,
 ) -> Outcome<crate::budget::Reservation> {
+    let cells = counts.iter().map(|&n| n as f64).product::<f64>();
     crate::budget::reserve(
-        cells as f64 * bytes_per_cell as f64,
+        cells * bytes_per_cell as f64 + transform_scratch_bytes(counts),
         &format!("{what} over {cells} cells (its working memory)"),
     )
+}
+
+/// What the passes of a transform over `counts` cells hold besides the data: each worker
+/// thread's copy of a z-slab for the y pass (`nx·ny` complex values) and its scratch for one
+/// line, and the three axes' plans. rustfft's scratch and twiddles for a line of `n` stay
+/// within `8n` complex values (a prime length's Rader or Bluestein plan pads its inner
+/// transform; the largest scratch measured up to 1024 is 4.7n, at n = 653), so the figure is a
+/// bound.
+pub fn transform_scratch_bytes([nx, ny, nz]: [usize; 3]) -> f64 {
+    let complex = std::mem::size_of::<Complex64>() as f64;
+    let line = 8.0 * nx.max(ny).max(nz) as f64;
+    let threads = rayon::current_num_threads() as f64;
+    complex * (threads * ((nx * ny) as f64 + line) + 3.0 * line)
 }
 
 /// A standard normal number for one (seed, component, cell): two uniforms from a

@@ -261,10 +261,10 @@ fn store(
             ));
         }
         // Growing past the capacity doubles it: the new storage must fit the budget.
-        if items.len() == items.capacity() {
-            let bytes = (2 * items.len().max(4) * std::mem::size_of::<Value>()) as f64;
+        if let Some(bytes) = super::value::growth_bytes(items.len(), items.capacity()) {
             crate::budget::check(bytes, &format!("an array of {} elements", items.len() + 1))
                 .map_err(|f| (*span, f))?;
+            super::value::grow_for_push(items);
         }
         items.push(value.convert(&elem_ty));
         return Ok(());

@@ -241,6 +241,19 @@ pub fn check_name(name: &str) -> Outcome<()> {
     }
 }
 
+/// Checks the run's memory budget for `addattr`: a copy of `set` with an attribute of `width`
+/// components added, made while the script still holds `set`, so both count, and so does the
+/// attribute's own storage, twice when it is `gathered` from an array or a field first.
+pub fn check_added_attribute(set: &Particles, width: usize, gathered: bool) -> Outcome<()> {
+    let n = set.len();
+    let attribute = (n * width * std::mem::size_of::<f32>()) as f64;
+    let copies = if gathered { 2.0 } else { 1.0 };
+    crate::budget::check(
+        2.0 * set.bytes() as f64 + copies * attribute,
+        &format!("addattr's copy of {n} points with the attribute added"),
+    )
+}
+
 /// Checks the run's memory budget for `points` points of these widths before allocating them.
 pub fn check_memory(points: usize, widths: &[usize], what: &str) -> Outcome<()> {
     crate::budget::check((points as f64) * bytes_per_point(widths) as f64, what)

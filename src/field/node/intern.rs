@@ -142,7 +142,21 @@ pub(super) fn intern(op: Op) -> NodeRef {
 /// Checks that the field graphs built so far fit in what is left of the memory budget. Cheap
 /// (one atomic read) unless they seem not to, when dead entries are swept out first.
 pub fn check_graph_memory() -> crate::failure::Outcome<()> {
-    let bytes = |count: usize| (count * NODE_BYTES) as f64;
+    check_nodes(0.0, |live| format!("field graphs of {live} nodes")).map_err(|f| {
+        f.with_help(
+            "the script's fields have grown to more nodes than the budget holds: each nested \
+             derivative (grad, laplacian, div, curl) multiplies a field's graph several times, \
+             and each knife of `cutall` doubles its sides; differentiate fewer times (or cache \
+             the field on a grid first), cut with fewer knives (`cutpieces` keeps only the \
+             pieces that occur), or raise the budget with --memory-limit MB",
+        )
+    })
+}
+
+/// Checks that the live nodes and `more` nodes yet to be made fit in what is left of the
+/// budget; `what` names them, given the live count.
+fn check_nodes(more: f64, what: impl Fn(usize) -> String) -> crate::failure::Outcome<()> {
+    let bytes = |count: usize| (count as f64 + more) * NODE_BYTES as f64;
     let fits =
         |count: usize| bytes(count) + crate::budget::used() as f64 <= crate::budget::limit() as f64;
     if fits(LENGTH.load(Ordering::Relaxed)) {
@@ -154,13 +168,50 @@ pub fn check_graph_memory() -> crate::failure::Outcome<()> {
         LENGTH.store(table.nodes.len(), Ordering::Relaxed);
         table.nodes.len()
     };
-    crate::budget::check(bytes(live), &format!("field graphs of {live} nodes")).map_err(|f| {
+    crate::budget::check(bytes(live), &what(live))
+}
+
+/// How many nodes the table has made so far (a running count, never lowered by sweeps): the
+/// difference of two readings is what the code between them made.
+pub fn nodes_made() -> u64 {
+    NEXT_ID.load(Ordering::Relaxed)
+}
+
+/// A derivative pass over a graph of `total` nodes that has visited `done` of them and made
+/// `made` nodes meanwhile, with `later` passes still to come over what it returns (a
+/// `laplacian` is a gradient of a gradient): refused now when, going on at that rate, the
+/// nodes it and the later passes would make do not fit in what is left of the budget.
+///
+/// Each pass multiplies the graph by about the same factor `1 + r` (a pass makes `r` new nodes
+/// per node it visits), so the passes together make `total·((1 + r)^(later + 1) − 1)`. A tower
+/// of nested derivatives grows severalfold per level, and building the last level only to
+/// find at its end that it does not fit took most of a minute under a budget of gigabytes.
+/// The rate is measured only after a sixteenth of the pass (and 16,384 nodes), so a small or
+/// lopsided start does not decide.
+pub fn check_projected_growth(
+    made: u64,
+    done: usize,
+    total: usize,
+    later: u32,
+) -> crate::failure::Outcome<()> {
+    if done < 16_384 || done < total / 16 || done >= total {
+        return Ok(());
+    }
+    let rate = made as f64 / done as f64;
+    let all = total as f64 * ((1.0 + rate).powi(later as i32 + 1) - 1.0);
+    let projected = (all - made as f64).max(0.0).round();
+    check_nodes(projected, |live| {
+        format!(
+            "a derivative of a field of {total} nodes (at the rate of its first {done}, about \
+             {projected} nodes more than the {live} that exist)"
+        )
+    })
+    .map_err(|f| {
         f.with_help(
-            "the script's fields have grown to more nodes than the budget holds: each nested \
-             derivative (grad, laplacian, div, curl) multiplies a field's graph several times, \
-             and each knife of `cutall` doubles its sides; differentiate fewer times (or cache \
-             the field on a grid first), cut with fewer knives (`cutpieces` keeps only the \
-             pieces that occur), or raise the budget with --memory-limit MB",
+            "each nested derivative (grad, laplacian, div, curl) multiplies a field's graph \
+             several times over, so a few levels of them outgrow any budget: differentiate \
+             fewer times, cache the field on a grid (cachewrite) and differentiate the cache \
+             read, or raise the budget with --memory-limit MB",
         )
     })
 }

@@ -73,7 +73,7 @@ pub fn project_divergence_free_with(
             data[at]
         )));
     }
-    let _working = check_working_memory(grid.len, PROJECTION_BYTES_PER_CELL, "fftdivfree")?;
+    let _working = check_working_memory(grid.counts, PROJECTION_BYTES_PER_CELL, "fftdivfree")?;
     let [nx, ny, nz] = resolution;
     let h = nx / 2 + 1;
     let half = Grid::new([h, ny, nz], cell.to_array())?;

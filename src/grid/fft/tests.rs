@@ -359,3 +359,27 @@ fn bad_requests_are_failures() {
         e.message
     );
 }
+
+/// The working memory charged for a transform bounds what rustfft asks for: each line's
+/// in-place scratch stays within the `8n` complex values per thread that
+/// `transform_scratch_bytes` counts, for every length up to 1024 (primes, which rustfft
+/// transforms by Rader's or Bluestein's algorithm, included), both directions.
+#[test]
+fn charged_scratch_bounds_what_the_plans_ask_for() {
+    let mut planner = FftPlanner::<f64>::new();
+    let mut largest = (0.0, 0);
+    for n in 1..=1024 {
+        for direction in [FftDirection::Forward, FftDirection::Inverse] {
+            let scratch = planner.plan_fft(n, direction).get_inplace_scratch_len();
+            assert!(scratch <= 8 * n, "length {n}: scratch {scratch}");
+            if scratch as f64 / n as f64 > largest.0 {
+                largest = (scratch as f64 / n as f64, n);
+            }
+        }
+    }
+    println!("largest scratch: {:.2} n at n = {}", largest.0, largest.1);
+    // One thread's share: a 32 × 16 slab and a line of 8 × 32, plus three plans' lines.
+    let bytes = transform_scratch_bytes([32, 16, 8]);
+    let threads = rayon::current_num_threads() as f64;
+    assert_eq!(bytes, 16.0 * (threads * (512.0 + 256.0) + 3.0 * 256.0));
+}

@@ -37,6 +37,8 @@ pub struct CloudVar {
 struct Regions {
     fields: [Option<Field>; 3],
     probabilities: Arc<Probabilities>,
+    /// The budget the sampled probabilities hold for as long as a state uses them.
+    _memory: Option<Arc<crate::budget::Reservation>>,
 }
 
 /// The channels' parameter names, in the order of `Probabilities`' fields.
@@ -254,12 +256,17 @@ fn sample_regions(
             _ => Field::constant_scalar(0.0),
         });
     }
-    let probabilities = if uniform.iter().all(Option::is_some) {
+    let (probabilities, memory) = if uniform.iter().all(Option::is_some) {
         let [hum, act, ext] = uniform.map(|p| p.expect("all uniform"));
-        Probabilities { hum, act, ext }
+        (Probabilities { hum, act, ext }, None)
     } else {
-        // Three 16-bit thresholds and three bits a cell: within two f32 grids' budget.
-        domain.check_grid_memory(2)?;
+        // Sampling fills three 16-bit thresholds and three bits a cell; what is kept (the
+        // channels that are not uniform) is held for as long as a state uses it.
+        let cells = (planes.nx * planes.ny * planes.nz) as f64;
+        let sampling = crate::budget::reserve(
+            3.0 * (2.0 * cells + 8.0 * planes.len() as f64),
+            "the automaton's region probabilities",
+        )?;
         let joint = Field::vector_from(&components[0], &components[1], &components[2])?;
         let compiled = CompiledField::prepared(&joint)?;
         let sampled = Probabilities::sample(&compiled, domain, &planes);
@@ -274,11 +281,14 @@ fn sample_regions(
         stats.add_instance(0);
         stats.add_evaluated();
         stats.add_work(started.elapsed().as_nanos() as u64, bytes);
-        Probabilities { hum, act, ext }
+        drop(sampling);
+        let kept = crate::budget::reserve(bytes as f64, "the automaton's region probabilities")?;
+        (Probabilities { hum, act, ext }, Some(Arc::new(kept)))
     };
     Ok(Regions {
         fields,
         probabilities: Arc::new(probabilities),
+        _memory: memory,
     })
 }
 

@@ -10,7 +10,7 @@ use crate::failure::{Failure, Outcome};
 use crate::field::{CompiledField, Field};
 use crate::interp::Interpreter;
 use crate::interp::registry::{Args, Registry};
-use crate::interp::value::Value;
+use crate::interp::value::{Value, array_bytes};
 use crate::particles::flame_splat::{SplatInto, splat_flame};
 use crate::particles::io::{self, FileKind};
 use crate::particles::pointfield::{Blend, PointField};
@@ -125,7 +125,7 @@ pub fn register(r: &mut Registry) {
         |_, a| {
             let set = particles_of(a.get("p")?)?;
             let values = set.floats(a.string("name")?)?;
-            crate::budget::check(values.len() as f64 * 48.0, "an attribute array")?;
+            crate::budget::check(array_bytes(values.len()), "an attribute array")?;
             let items = values.iter().map(|&v| Value::Float(v as f64)).collect();
             Ok(Value::array(items, crate::check::types::Type::Float))
         },
@@ -137,7 +137,7 @@ pub fn register(r: &mut Registry) {
         |_, a| {
             let set = particles_of(a.get("p")?)?;
             let values = set.vectors(a.string("name")?)?;
-            crate::budget::check(values.len() as f64 * 48.0, "an attribute array")?;
+            crate::budget::check(array_bytes(values.len()), "an attribute array")?;
             let items = values
                 .iter()
                 .map(|v| Value::Vector(DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64)))
@@ -303,6 +303,9 @@ fn addattr(_: &mut Interpreter, a: Args) -> Outcome<Value> {
     let set = particles_of(a.get("p")?)?;
     let name = a.string("name")?;
     let n = set.len();
+    // Checked before anything is built, so the refusal comes before the peak.
+    let width = if a.form.is_multiple_of(2) { 1 } else { 3 };
+    crate::particles::check_added_attribute(set, width, a.form >= 2)?;
     let values = match a.form {
         0 => Values::Float(vec![a.float("value")? as f32; n]),
         1 => Values::Vector(vec![
@@ -325,7 +328,6 @@ fn addattr(_: &mut Interpreter, a: Args) -> Outcome<Value> {
             Values::Vector(flat.chunks(3).map(|c| [c[0], c[1], c[2]]).collect())
         }
     };
-    crate::particles::check_memory(n, &[values.width()], "a particle attribute")?;
     let mut out = set.clone();
     out.set(name, values)?;
     out.check_finite("addattr")?;
