@@ -36,6 +36,13 @@ pub struct FarmArgs {
     /// paths of the script's render calls).
     #[arg(long = "image", value_name = "PATH")]
     pub images: Vec<String>,
+    /// A simulation script run once, over every frame from the range's first to its last in
+    /// order, before any render task; the render tasks read the caches it writes.
+    #[arg(long, value_name = "SCRIPT")]
+    pub sim: Option<PathBuf>,
+    /// Override a `param` of the simulation script: `--sim-set name=value` (repeatable).
+    #[arg(long = "sim-set", value_name = "NAME=VALUE", value_parser = parse_assignment, requires = "sim")]
+    pub sim_set: Vec<(String, String)>,
     /// The file to write (default: SCRIPT.openjd.yaml or SCRIPT.slurm.sh in the current
     /// folder).
     #[arg(long, short, value_name = "FILE")]

@@ -66,24 +66,15 @@ pub fn farm(engine: FarmEngine, color: bool) -> ExitCode {
         FarmEngine::Openjd(args) => (true, args),
         FarmEngine::Slurm(args) => (false, args),
     };
-    if let Err(code) = frame_param(&args.file, &args.set) {
+    // Both scripts are checked before any job file is written.
+    let (session, units) = match checked(&args.file, &args.set, color) {
+        Ok(checked) => checked,
+        Err(code) => return code,
+    };
+    if let Some(sim) = &args.sim
+        && let Err(code) = checked(sim, &args.sim_set, color)
+    {
         return code;
-    }
-    let mut session = match Session::new(Box::new(std::io::sink())) {
-        Ok(s) => s,
-        Err(failure) => return report(&failure.sources, &failure.diagnostics, color, 1),
-    };
-    let units = match session.load(&args.file) {
-        Ok(units) => units,
-        Err(diags) => return report(&session.sources.borrow(), &diags, color, 2),
-    };
-    let diags = session.check(&units);
-    if diags.iter().any(|d| d.is_error()) {
-        return report(&session.sources.borrow(), &diags, color, 1);
-    }
-    session.interp.overrides = args.set.iter().cloned().collect();
-    if let Err(d) = session.check_overrides(&units) {
-        return report(&session.sources.borrow(), &[d], color, 2);
     }
     let felt_binary = match std::env::current_exe() {
         Ok(p) => p,
@@ -106,7 +97,11 @@ pub fn farm(engine: FarmEngine, color: bool) -> ExitCode {
         args.tiles.map(usize::from),
         args.set,
         args.images,
-    ) {
+    )
+    .and_then(|job| match &args.sim {
+        Some(sim) => job.with_sim(sim, args.sim_set),
+        None => Ok(job),
+    }) {
         Ok(job) => job,
         Err(failure) => return refused(failure),
     };
@@ -149,8 +144,34 @@ pub fn farm(engine: FarmEngine, color: bool) -> ExitCode {
     }
 }
 
-/// The Slurm scripts: OUT (the render array), and with bands OUT's `.merge.sh` and
-/// `.submit.sh` siblings; the submit script is written in every case.
+/// `file` loaded and checked, with its `--frames` param and the `set` values it is given.
+fn checked(
+    file: &std::path::Path,
+    set: &[(String, String)],
+    color: bool,
+) -> Result<(Session, Vec<felt::session::Unit>), ExitCode> {
+    frame_param(file, set)?;
+    let mut session = match Session::new(Box::new(std::io::sink())) {
+        Ok(s) => s,
+        Err(failure) => return Err(report(&failure.sources, &failure.diagnostics, color, 1)),
+    };
+    let units = match session.load(file) {
+        Ok(units) => units,
+        Err(diags) => return Err(report(&session.sources.borrow(), &diags, color, 2)),
+    };
+    let diags = session.check(&units);
+    if diags.iter().any(|d| d.is_error()) {
+        return Err(report(&session.sources.borrow(), &diags, color, 1));
+    }
+    session.interp.overrides = set.iter().cloned().collect();
+    if let Err(d) = session.check_overrides(&units) {
+        return Err(report(&session.sources.borrow(), &[d], color, 2));
+    }
+    Ok((session, units))
+}
+
+/// The Slurm scripts: OUT (the render array), with bands OUT's `.merge.sh`, with a simulation
+/// its `.sim.sh`, and the `.submit.sh` sibling, written in every case.
 fn write_slurm(
     out: &std::path::Path,
     scripts: &felt::farm::slurm::Scripts,
@@ -168,7 +189,17 @@ fn write_slurm(
                 format!("'{p}' is not valid UTF-8, so the submit script cannot name it")
             })
     };
-    let mut files = vec![out.to_path_buf()];
+    let mut files = Vec::new();
+    let sim = match &scripts.sim {
+        Some(text) => {
+            let path = PathBuf::from(format!("{stem}.sim.sh"));
+            write_job_file(&path, text, true)?;
+            files.push(path.clone());
+            Some(absolute(&path)?)
+        }
+        None => None,
+    };
+    files.push(out.to_path_buf());
     write_job_file(out, &scripts.render, true)?;
     let merge = match &scripts.merge {
         Some(text) => {
@@ -180,7 +211,7 @@ fn write_slurm(
         None => None,
     };
     let submit = PathBuf::from(format!("{stem}.submit.sh"));
-    let text = felt::farm::slurm::submit(&absolute(out)?, merge.as_deref());
+    let text = felt::farm::slurm::submit(sim.as_deref(), &absolute(out)?, merge.as_deref());
     write_job_file(&submit, &text, true)?;
     files.push(submit);
     Ok(files)

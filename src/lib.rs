@@ -39,3 +39,4 @@ pub mod study;
 pub mod syntax;
 #[cfg(test)]
 mod test_random;
+pub mod usd;

@@ -1,5 +1,5 @@
-//! Hostile names in farm jobs: folders, script files, `--set` values and `--image` paths an
-//! artist might type (shell syntax, quotes, newlines, OpenJD's own `{{...}}`, unicode), written
+//! Hostile names in farm jobs: folders, script files, `--set` values, `--image` paths and
+//! `--sim` simulation scripts (their folders and file names) an artist might type (shell syntax, quotes, newlines, OpenJD's own `{{...}}`, unicode), written
 //! into Slurm and Open Job Description jobs, whose task lines are then run by real shells
 //! (`sh`, which is dash here, and bash) with a stub felt in place of the binary the jobs name.
 //! The stub records its working folder and its arguments; they must be exactly the original
@@ -44,9 +44,21 @@ enum Kind {
     ScriptFile,
     SetValue,
     Image,
+    SimFolder,
+    SimFile,
 }
 
-const KINDS: [Kind; 4] = [Kind::Folder, Kind::ScriptFile, Kind::SetValue, Kind::Image];
+const KINDS: [Kind; 6] = [
+    Kind::Folder,
+    Kind::ScriptFile,
+    Kind::SetValue,
+    Kind::Image,
+    Kind::SimFolder,
+    Kind::SimFile,
+];
+
+/// The simulation script given with `--sim` in the simulation kinds.
+const SIM: &str = "param int frame = 1;\nprint(frame);\n";
 
 const SCRIPT: &str = "param int frame = 1;\nparam string title = \"\";\n\
     render(\"shot.####.exr\", density = 1.0, camera = camera((0, 0, 5), (0, 0, 0), (0, 1, 0), 40));\n";
@@ -66,6 +78,8 @@ struct Case {
     script: PathBuf,
     set: String,
     image: String,
+    /// The simulation script's folder and path, as the file system has them.
+    sim: Option<(PathBuf, PathBuf)>,
     out: PathBuf,
     wrote: Output,
 }
@@ -77,13 +91,16 @@ fn refused(name: &str, kind: Kind, openjd: bool) -> Option<Vec<&'static str>> {
         Kind::ScriptFile => "the script's path",
         Kind::SetValue => "--set title",
         Kind::Image => "--image",
+        Kind::SimFolder => "the simulation script's folder",
+        Kind::SimFile => "the simulation script's path",
     };
+    let folder = matches!(kind, Kind::Folder | Kind::SimFolder);
     if openjd {
         let control = name.chars().any(|c| c.is_control() && c != '\n');
         control.then(|| vec![what, "control character"])
-    } else if kind == Kind::Folder && name.contains('\n') {
+    } else if folder && name.contains('\n') {
         Some(vec![what, "newline", "#SBATCH"])
-    } else if kind == Kind::Folder && name.to_ascii_lowercase().contains("hetjob") {
+    } else if folder && name.to_ascii_lowercase().contains("hetjob") {
         Some(vec![what, "hetjob"])
     } else {
         None
@@ -124,13 +141,25 @@ fn write_jobs(root: &Path, felt: &Path) -> Vec<Case> {
                 Kind::Image => name.to_string(),
                 _ => "shot.####.exr".to_string(),
             };
+            let sim = match kind {
+                Kind::SimFolder => Some(root.join("sims").join(name).join("sim.felt")),
+                Kind::SimFile => Some(folder.join(format!("{name}.felt"))),
+                _ => None,
+            };
+            let sim = sim.map(|sim| {
+                std::fs::create_dir_all(sim.parent().unwrap()).unwrap();
+                std::fs::write(&sim, SIM).unwrap();
+                let sim = std::fs::canonicalize(&sim).unwrap();
+                (sim.parent().unwrap().to_path_buf(), sim)
+            });
             for openjd in [false, true] {
                 let engine = if openjd { "openjd" } else { "slurm" };
                 let ext = if openjd { "yaml" } else { "sh" };
                 let out = root
                     .join("jobs")
                     .join(format!("{n}-{kind:?}-{engine}.{ext}"));
-                let wrote = Command::new(felt)
+                let mut command = Command::new(felt);
+                command
                     .args(["farm", engine])
                     .arg(&script)
                     .args(["--frames", "1-2", "--tiles", "2"])
@@ -138,9 +167,13 @@ fn write_jobs(root: &Path, felt: &Path) -> Vec<Case> {
                     .arg(format!("--set={set}"))
                     .arg(format!("--image={image}"))
                     .arg("--out")
-                    .arg(&out)
-                    .output()
-                    .unwrap();
+                    .arg(&out);
+                if let Some((_, sim)) = &sim {
+                    let mut arg = std::ffi::OsString::from("--sim=");
+                    arg.push(sim);
+                    command.arg(arg);
+                }
+                let wrote = command.output().unwrap();
                 cases.push(Case {
                     name,
                     kind,
@@ -149,6 +182,7 @@ fn write_jobs(root: &Path, felt: &Path) -> Vec<Case> {
                     script: script.clone(),
                     set: set.clone(),
                     image: image.clone(),
+                    sim: sim.clone(),
                     out,
                     wrote,
                 });
@@ -202,6 +236,19 @@ fn expected(case: &Case, felt: &Path, frame: i64, band: Option<i64>) -> Vec<Stri
         ]),
     }
     argv
+}
+
+/// What the stub must see for the simulation task of a case with one.
+fn expected_sim(case: &Case, felt: &Path) -> Option<Vec<String>> {
+    let (folder, script) = case.sim.as_ref()?;
+    Some(vec![
+        folder.display().to_string(),
+        felt.display().to_string(),
+        "run".to_string(),
+        script.display().to_string(),
+        "--frames".to_string(),
+        "1-2".to_string(),
+    ])
 }
 
 /// Runs `shell` with `args` from the folder `cwd`, with the stub's log folder set.
@@ -274,6 +321,26 @@ fn sbatch_option(script: &str, option: &str) -> Option<String> {
 /// The Slurm scripts' array tasks, each run by bash as Slurm starts it, and their `cd` and
 /// `exec` lines run by sh with the frame and band set.
 fn run_slurm(case: &Case, felt: &Path, cwd: &Path, log: &Path) {
+    let sim_path = case.out.with_extension("sim.sh");
+    if let (Some((folder, _)), Some(want)) = (&case.sim, expected_sim(case, felt)) {
+        let sim = std::fs::read_to_string(&sim_path).unwrap();
+        assert_eq!(
+            sbatch_option(&sim, "--chdir").as_deref(),
+            Some(folder.to_str().unwrap()),
+            "{sim}"
+        );
+        let submit = std::fs::read_to_string(case.out.with_extension("submit.sh")).unwrap();
+        assert!(
+            submit.contains("--dependency=afterok:\"${sim%%;*}\""),
+            "{submit}"
+        );
+        run_shell("bash", &[sim_path.display().to_string()], cwd, log, &[]);
+        let lines = &sim[sim.find("\ncd ").unwrap()..];
+        run_shell("sh", &["-c".to_string(), lines.to_string()], cwd, log, &[]);
+        assert_eq!(calls(log), vec![want.clone(), want], "{:?}", case.name);
+    } else {
+        assert!(!sim_path.exists(), "{}", sim_path.display());
+    }
     let render = std::fs::read_to_string(&case.out).unwrap();
     let merge_path = case.out.with_extension("merge.sh");
     let merge = std::fs::read_to_string(&merge_path).unwrap();
@@ -382,7 +449,7 @@ fn run_openjd(case: &Case, felt: &Path, cwd: &Path, log: &Path) {
         .filter_map(|l| l.trim().strip_prefix("args: "))
         .map(json_strings)
         .collect();
-    assert_eq!(steps.len(), 2, "{yaml}");
+    assert_eq!(steps.len(), 2 + usize::from(case.sim.is_some()), "{yaml}");
     assert!(yaml.contains("command: \"/bin/sh\""), "{yaml}");
     let mut values: BTreeMap<&str, String> = BTreeMap::new();
     if yaml.contains("{{Param.FeltLeftBrace}}") || yaml.contains("{{Param.FeltRightBrace}}") {
@@ -402,6 +469,20 @@ fn run_openjd(case: &Case, felt: &Path, cwd: &Path, log: &Path) {
         name.starts_with("felt ") && !name.chars().any(char::is_control),
         "{name}"
     );
+    let mut steps = steps.as_slice();
+    if let Some(want) = expected_sim(case, felt) {
+        // The simulation step: one task, no parameters, before the render step.
+        assert!(yaml.contains("dependsOn: \"simulate\""), "{yaml}");
+        let argv: Vec<String> = steps[0]
+            .iter()
+            .map(|a| expand(a, &values).unwrap_or_else(|e| panic!("{e}\n{yaml}")))
+            .collect();
+        for shell in ["sh", "bash"] {
+            run_shell(shell, &argv, cwd, log, &[]);
+        }
+        assert_eq!(calls(log), vec![want.clone(), want], "{:?}", case.name);
+        steps = &steps[1..];
+    }
     for (step, args) in steps.iter().enumerate() {
         let tasks: &[(i64, Option<i64>)] = if step == 0 {
             &[(1, Some(0)), (1, Some(1)), (2, Some(0)), (2, Some(1))]
@@ -497,9 +578,9 @@ fn hostile_names_reach_felt_exactly_or_are_refused() {
         CORPUS.len(),
         cases.len()
     );
-    // The refusals met: the tab in all four kinds for OpenJD, the newline and `HetJob`
-    // folders for Slurm.
-    assert_eq!(refusals, 6);
+    // The refusals met: the tab in all six kinds for OpenJD, the newline and `HetJob`
+    // folders (the script's and the simulation's) for Slurm.
+    assert_eq!(refusals, 10);
 }
 
 /// Opt-in: `openjd check` accepts every template felt writes for the hostile names, and
@@ -557,6 +638,7 @@ fn openjd_cli_checks_and_runs_the_hostile_templates() {
         ]
         .into_iter()
         .map(|(frame, band)| expected(case, &felt, frame, band))
+        .chain(expected_sim(case, &felt))
         .collect();
         got.sort();
         want.sort();

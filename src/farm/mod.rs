@@ -1,9 +1,13 @@
 //! `felt farm`: job descriptions for render farms that already exist (Open Job Description,
 //! Slurm), never a scheduler of felt's own.
 //!
-//! A job is a script, a frame range, optionally a split of each frame into bands, and the
-//! `--set` values. Every task is one `felt run --frames F [--tile I/N]` process, idempotent and
-//! atomic as any felt run is; with bands, a dependent step runs `felt merge` per frame. The one
+//! A job is a script, a frame range, optionally a split of each frame into bands, optionally a
+//! simulation script, and the `--set` values. Every render task is one `felt run --frames F
+//! [--tile I/N]` process, idempotent and atomic as any felt run is; with bands, a dependent step
+//! runs `felt merge` per frame. With a simulation, one task before all of them runs the
+//! simulation script over every frame from the range's first to its last, in order (a
+//! simulation carries its state from frame to frame through the caches it writes), and the
+//! render tasks read those caches, so the simulation runs once however many tasks render. The one
 //! key decision: a farm node shares the file system but not the working directory, so every
 //! command names the felt binary and the script by absolute path and first changes into the
 //! script's folder; relative paths in the script (outputs, caches, imports) then resolve there,
@@ -36,6 +40,19 @@ pub struct Job {
     pub set: Vec<(String, String)>,
     /// The images `felt merge` assembles, as the script names them (relative to `folder`).
     pub images: Vec<String>,
+    /// The simulation every render task waits for, when there is one.
+    pub sim: Option<Simulation>,
+}
+
+/// The one task that simulates the whole frame range before any frame is rendered.
+#[derive(Clone, Debug)]
+pub struct Simulation {
+    /// The simulation script, absolute.
+    pub script: String,
+    /// Where the simulation task runs: its script's folder.
+    pub folder: String,
+    /// The `--sim-set` values, for the simulation script only.
+    pub set: Vec<(String, String)>,
 }
 
 /// One argument of a task's command.
@@ -61,15 +78,8 @@ impl Job {
         set: Vec<(String, String)>,
         images: Vec<String>,
     ) -> Outcome<Job> {
-        let absolute = |p: &Path, what: &str| {
-            p.canonicalize()
-                .map_err(|e| Failure::new(format!("cannot find {what} '{}': {e}", p.display())))
-        };
         let script = absolute(script, "the script")?;
-        let folder = script
-            .parent()
-            .map(Path::to_path_buf)
-            .unwrap_or_else(|| PathBuf::from("/"));
+        let folder = parent(&script);
         let mut images = images;
         if tiles.is_some() && images.is_empty() {
             let mut found = Vec::new();
@@ -96,7 +106,20 @@ impl Job {
             tiles,
             set,
             images,
+            sim: None,
         })
+    }
+
+    /// The job with the simulation script `script` run once before every render task, given
+    /// the `--sim-set` values `set`.
+    pub fn with_sim(mut self, script: &Path, set: Vec<(String, String)>) -> Outcome<Job> {
+        let script = absolute(script, "the simulation script")?;
+        self.sim = Some(Simulation {
+            folder: text(parent(&script), "the simulation script's folder")?,
+            script: text(script, "the simulation script's path")?,
+            set,
+        });
+        Ok(self)
     }
 
     /// The arguments of one render task's `felt run`.
@@ -114,6 +137,39 @@ impl Job {
             args.push(Word::Text(format!("{name}={value}")));
         }
         args
+    }
+
+    /// The arguments of the simulation's one `felt run`: every frame from the first to the
+    /// last, in order, even when the render takes only some of them (a simulation steps
+    /// through each frame). `None` without a simulation.
+    pub fn sim_args(&self) -> Option<Vec<Word>> {
+        let sim = self.sim.as_ref()?;
+        let mut args: Vec<Word> = [
+            self.felt.as_str(),
+            "run",
+            sim.script.as_str(),
+            "--frames",
+            &self.sim_frames(),
+        ]
+        .into_iter()
+        .map(|t| Word::Text(t.to_string()))
+        .collect();
+        for (name, value) in &sim.set {
+            args.push(Word::Text("--set".to_string()));
+            args.push(Word::Text(format!("{name}={value}")));
+        }
+        Some(args)
+    }
+
+    /// The simulation's frames: `FIRST-LAST` of the render's range.
+    pub fn sim_frames(&self) -> String {
+        let first = self.frames.frames.iter().min().copied().unwrap_or(1);
+        let last = self.frames.frames.iter().max().copied().unwrap_or(first);
+        if first == last {
+            first.to_string()
+        } else {
+            format!("{first}-{last}")
+        }
     }
 
     /// The arguments of one frame's `felt merge`. `--` ends the options, so an image whose
@@ -144,6 +200,19 @@ impl Job {
         for image in &self.images {
             texts.push(("the --image path".to_string(), image.as_str()));
         }
+        if let Some(sim) = &self.sim {
+            texts.push((
+                "the simulation script's folder".to_string(),
+                sim.folder.as_str(),
+            ));
+            texts.push((
+                "the simulation script's path".to_string(),
+                sim.script.as_str(),
+            ));
+            for (name, value) in &sim.set {
+                texts.push((format!("the value of --sim-set {name}"), value.as_str()));
+            }
+        }
         texts
     }
 
@@ -160,6 +229,20 @@ impl Job {
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_else(|| String::from("felt"))
     }
+}
+
+/// `p` made absolute, every link resolved; `what` names it when it cannot be found.
+fn absolute(p: &Path, what: &str) -> Outcome<PathBuf> {
+    p.canonicalize()
+        .map_err(|e| Failure::new(format!("cannot find {what} '{}': {e}", p.display())))
+}
+
+/// The folder holding `script`.
+fn parent(script: &Path) -> PathBuf {
+    script
+        .parent()
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| PathBuf::from("/"))
 }
 
 /// `path` as text; a job file is text, so a path that is not UTF-8 cannot be written into one

@@ -4,7 +4,9 @@
 //! The one key decision: the frame range is handed to the engine as it was written, as the
 //! `Frame` task parameter's range expression (felt's range syntax is OpenJD's), so the engine,
 //! not felt, expands it into tasks; with bands a `Tile` parameter is crossed with it and a
-//! `merge` step depending on the render step has one task per frame. The template is YAML whose
+//! `merge` step depending on the render step has one task per frame. With a simulation, a
+//! `simulate` step of one task (no parameter space) runs first and the render step depends on
+//! it. The template is YAML whose
 //! every string is double-quoted with JSON escapes (so it is JSON-safe text too).
 //!
 //! Quoting: each task runs `/bin/sh -c 'cd "$1" && shift && exec "$@"' felt-task FOLDER FELT
@@ -53,11 +55,25 @@ pub fn template(job: &Job) -> Outcome<String> {
         .collect();
     let name = text.format(&name);
     let mut steps = String::new();
-    let render = command(&mut text, job, &job.run_args());
-    step(&mut steps, "render", None, job, job.tiles, &render);
+    let mut render_after = None;
+    if let (Some(sim), Some(args)) = (&job.sim, job.sim_args()) {
+        let simulate = command(&mut text, &sim.folder, &args);
+        step(&mut steps, "simulate", None, None, &simulate);
+        render_after = Some("simulate");
+    }
+    let render = command(&mut text, &job.folder, &job.run_args());
+    let space = Space {
+        frames: job.frames_text(),
+        tiles: job.tiles,
+    };
+    step(&mut steps, "render", render_after, Some(&space), &render);
     if job.tiles.is_some() {
-        let merge = command(&mut text, job, &job.merge_args());
-        step(&mut steps, "merge", Some("render"), job, None, &merge);
+        let merge = command(&mut text, &job.folder, &job.merge_args());
+        let space = Space {
+            frames: job.frames_text(),
+            tiles: None,
+        };
+        step(&mut steps, "merge", Some("render"), Some(&space), &merge);
     }
     let mut yaml = String::new();
     yaml.push_str("specificationVersion: \"jobtemplate-2023-09\"\n");
@@ -108,13 +124,13 @@ impl Literal {
     }
 }
 
-/// The arguments of `/bin/sh` for a task running `args` in the script's folder.
-fn command(text: &mut Literal, job: &Job, args: &[Word]) -> Vec<String> {
+/// The arguments of `/bin/sh` for a task running `args` in `folder`.
+fn command(text: &mut Literal, folder: &str, args: &[Word]) -> Vec<String> {
     let mut argv = vec![
         "-c".to_string(),
         TASK_SHELL.to_string(),
         "felt-task".to_string(),
-        text.format(&job.folder),
+        text.format(folder),
     ];
     argv.extend(args.iter().map(|word| match word {
         Word::Text(t) => text.format(t),
@@ -124,12 +140,18 @@ fn command(text: &mut Literal, job: &Job, args: &[Word]) -> Vec<String> {
     argv
 }
 
+/// A step's tasks: the frames, each crossed with the bands when there are some.
+struct Space {
+    frames: String,
+    tiles: Option<usize>,
+}
+
+/// A step running `args`; without a parameter space it is a single task.
 fn step(
     yaml: &mut String,
     name: &str,
     after: Option<&str>,
-    job: &Job,
-    tiles: Option<usize>,
+    space: Option<&Space>,
     args: &[String],
 ) {
     yaml.push_str(&format!("  - name: {}\n", quoted(name)));
@@ -137,11 +159,13 @@ fn step(
         yaml.push_str("    dependencies:\n");
         yaml.push_str(&format!("      - dependsOn: {}\n", quoted(after)));
     }
-    yaml.push_str("    parameterSpace:\n      taskParameterDefinitions:\n");
-    parameter(yaml, "Frame", &job.frames_text());
-    if let Some(count) = tiles {
-        parameter(yaml, "Tile", &format!("0-{}", count - 1));
-        yaml.push_str("      combination: \"Frame * Tile\"\n");
+    if let Some(space) = space {
+        yaml.push_str("    parameterSpace:\n      taskParameterDefinitions:\n");
+        parameter(yaml, "Frame", &space.frames);
+        if let Some(count) = space.tiles {
+            parameter(yaml, "Tile", &format!("0-{}", count - 1));
+            yaml.push_str("      combination: \"Frame * Tile\"\n");
+        }
     }
     yaml.push_str("    script:\n      actions:\n        onRun:\n");
     yaml.push_str("          command: \"/bin/sh\"\n");
@@ -187,6 +211,7 @@ mod tests {
             tiles,
             set: vec![("res".into(), "64".into())],
             images: vec!["out/cloud.####.exr".into()],
+            sim: None,
         }
     }
 
@@ -219,6 +244,31 @@ mod tests {
             ),
             "{yaml}"
         );
+    }
+
+    #[test]
+    fn a_simulation_is_one_task_the_render_step_waits_for() {
+        let mut simulated = job(Some(2));
+        simulated.sim = Some(crate::farm::Simulation {
+            script: "/shows/sim/smoke.felt".into(),
+            folder: "/shows/sim".into(),
+            set: vec![("res".into(), "96".into())],
+        });
+        let yaml = template(&simulated).unwrap();
+        let (sim, rest) = yaml.split_once("  - name: \"render\"").unwrap();
+        assert!(sim.contains("  - name: \"simulate\"\n"), "{yaml}");
+        assert!(!sim.contains("parameterSpace"), "one task: {yaml}");
+        assert!(
+            sim.contains(
+                r#"args: ["-c", "cd \"$1\" && shift && exec \"$@\"", "felt-task", "/shows/sim", "/opt/felt/bin/felt", "run", "/shows/sim/smoke.felt", "--frames", "1-239", "--set", "res=96"]"#
+            ),
+            "{yaml}"
+        );
+        assert!(
+            rest.starts_with("\n    dependencies:\n      - dependsOn: \"simulate\"\n"),
+            "{yaml}"
+        );
+        assert!(rest.contains("dependsOn: \"render\""), "{yaml}");
     }
 
     #[test]

@@ -1,11 +1,13 @@
 //! Slurm job arrays: a render script whose array tasks are the frames (or frames × bands), a
-//! merge script with one task per frame, and a submit script that chains them.
+//! merge script with one task per frame, with a simulation a single-task script that runs
+//! before the render array, and a submit script that chains them.
 //!
 //! The one key decision: array indices run from 0 and the script maps them to frames through a
 //! list it carries (`FRAMES=(1 3 5 ...)`), so any range felt accepts, steps and comma lists
 //! included, becomes one array; with `N` bands task `i` renders frame `FRAMES[i / N]`, band
 //! `i % N`. The merge array waits for the whole render array (`--dependency=afterok:JOB`), so
-//! `sbatch` alone never merges too early: submit with the submit script. Slurm's `MaxArraySize`
+//! `sbatch` alone never merges too early: submit with the submit script. Likewise the render
+//! array waits for the simulation job (`afterok`), so no frame is rendered before its cache. Slurm's `MaxArraySize`
 //! (1001 by default) bounds frames × bands per job.
 //!
 //! Quoting: every path and value in a shell line is one `shell::word`. The `#SBATCH` lines are
@@ -19,8 +21,10 @@
 use super::{Job, Word, refusal, shell};
 use crate::failure::Outcome;
 
-/// The scripts for `job`: the render array, and with bands the merge array.
+/// The scripts for `job`: the render array, with bands the merge array, and with a
+/// simulation its single job.
 pub struct Scripts {
+    pub sim: Option<String>,
     pub render: String,
     pub merge: Option<String>,
 }
@@ -53,14 +57,33 @@ pub fn scripts(job: &Job) -> Outcome<Scripts> {
             &job.merge_args(),
         )
     });
-    Ok(Scripts { render, merge })
+    let sim = match (&job.sim, job.sim_args()) {
+        (Some(sim), Some(args)) => {
+            let folder = directive_value(&sim.folder).map_err(|reason| {
+                refusal("the simulation script's folder", &sim.folder, reason)
+                    .with_help("move the simulation script to a folder whose path sbatch can read")
+            })?;
+            Some(sim_script(job, &sim.folder, &folder, &args))
+        }
+        _ => None,
+    };
+    Ok(Scripts { sim, render, merge })
 }
 
-/// The submit script: `sbatch` the render array, then the merge array after it.
-pub fn submit(render: &str, merge: Option<&str>) -> String {
+/// The submit script: `sbatch` the simulation, then the render array after it, then the merge
+/// array after that.
+pub fn submit(sim: Option<&str>, render: &str, merge: Option<&str>) -> String {
     let mut text = String::from("#!/bin/sh\n# Submits the felt job; prints the job ids.\nset -e\n");
+    let mut after = String::new();
+    if let Some(sim) = sim {
+        text.push_str(&format!(
+            "sim=$(sbatch --parsable \"$@\" {})\necho \"simulation job $sim\"\n",
+            shell::word(sim)
+        ));
+        after = "--dependency=afterok:\"${sim%%;*}\" ".to_string();
+    }
     text.push_str(&format!(
-        "render=$(sbatch --parsable \"$@\" {})\necho \"render job $render\"\n",
+        "render=$(sbatch --parsable {after}\"$@\" {})\necho \"render job $render\"\n",
         shell::word(render)
     ));
     if let Some(merge) = merge {
@@ -128,6 +151,24 @@ fn label(name: &str) -> String {
     label
 }
 
+/// The simulation's job: one task, no array, in the simulation script's folder.
+fn sim_script(job: &Job, cd: &str, folder: &str, args: &[Word]) -> String {
+    let command: Vec<String> = args.iter().map(shell_word).collect();
+    format!(
+        "#!/bin/bash\n\
+         #SBATCH --job-name={name}\n\
+         #SBATCH --chdir={folder}\n\
+         # felt simulate: frames {frames} in order, in one task.\n\
+         set -euo pipefail\n\
+         cd {cd}\n\
+         exec {command}\n",
+        name = quoted_directive(&label(&format!("{}-simulate", job.name()))),
+        frames = job.sim_frames(),
+        cd = shell::word(cd),
+        command = command.join(" "),
+    )
+}
+
 fn array_script(
     job: &Job,
     folder: &str,
@@ -174,6 +215,7 @@ mod tests {
             tiles,
             set: Vec::new(),
             images: vec!["out/c.####.exr".into()],
+            sim: None,
         }
     }
 
@@ -202,8 +244,39 @@ mod tests {
         let merge = s.merge.unwrap();
         assert!(merge.contains("#SBATCH --array=0-3\n"), "{merge}");
         assert!(merge.contains("merge --frames \"$frame\" --tiles 2 -- 'out/c.####.exr'"));
-        let submit = submit("r.sh", Some("m.sh"));
+        let submit = submit(None, "r.sh", Some("m.sh"));
         assert!(submit.contains("--dependency=afterok:"), "{submit}");
+        assert!(s.sim.is_none() && !submit.contains("sim="), "{submit}");
+    }
+
+    #[test]
+    fn the_simulation_is_one_job_the_render_array_waits_for() {
+        let mut simulated = job(Some(2));
+        simulated.sim = Some(crate::farm::Simulation {
+            script: "/shows/sim/it's.felt".into(),
+            folder: "/shows/sim".into(),
+            set: Vec::new(),
+        });
+        let sim = scripts(&simulated).unwrap().sim.unwrap();
+        assert!(!sim.contains("--array"), "{sim}");
+        assert!(sim.contains("#SBATCH --chdir=\"/shows/sim\"\n"), "{sim}");
+        assert!(
+            sim.contains(
+                "cd /shows/sim\nexec /opt/felt/bin/felt run '/shows/sim/it'\\''s.felt' --frames 1-10\n"
+            ),
+            "{sim}"
+        );
+        let submit = submit(Some("s.sh"), "r.sh", Some("m.sh"));
+        let sim_at = submit.find("sim=$(sbatch --parsable \"$@\" s.sh)").unwrap();
+        let render_at = submit
+            .find("render=$(sbatch --parsable --dependency=afterok:\"${sim%%;*}\" \"$@\" r.sh)")
+            .unwrap_or_else(|| panic!("{submit}"));
+        assert!(sim_at < render_at);
+        let mut hostile = simulated.clone();
+        if let Some(sim) = hostile.sim.as_mut() {
+            sim.folder = "/shows/packjob".into();
+        }
+        assert!(scripts(&hostile).is_err());
     }
 
     #[test]

@@ -15,6 +15,7 @@ mod nacelle;
 mod particles;
 mod rendering;
 mod simulation;
+mod usd;
 
 use super::registry::Registry;
 
@@ -32,4 +33,5 @@ pub fn register_all(r: &mut Registry) {
     particles::register(r);
     clouds::register(r);
     colour::register(r);
+    usd::register(r);
 }
