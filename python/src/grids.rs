@@ -5,7 +5,7 @@
 //! pyopenvdb's `copyToArray` orders them — and laid out x fastest (Fortran order), felt's own
 //! dense order: a brick's rows along x are then contiguous on both sides and each is one block
 //! copy, where a C-ordered array scatters every cell (0.71 against 0.97 GB/s for 256³, measured
-//! by `bench/bench.py`).
+//! by `bench/bench.py` on one debug build).
 //! `numpy.ascontiguousarray` gives C order where a consumer needs it. Arrays coming in are
 //! copied once into a cache's bricks; values that are not finite are refused, so NaN never
 //! enters a cache.
