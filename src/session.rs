@@ -286,6 +286,64 @@ impl Session {
         Ok(diags)
     }
 
+    /// Parses script text given in memory as a file named `name` and, first, what it imports
+    /// (relative to the current directory), like `load` does for a file.
+    pub fn load_source(&mut self, name: &str, text: &str) -> Result<Vec<Unit>, Vec<Diagnostic>> {
+        let unit = self.parse_text(name, text)?;
+        let mut units = Vec::new();
+        let mut stack = Vec::new();
+        for item in &unit.program.items {
+            if let Item::Import(import) = item {
+                self.load_recursive(
+                    Path::new(&import.path),
+                    Some(import.span),
+                    &mut stack,
+                    &mut units,
+                )?;
+            }
+        }
+        units.push(unit);
+        Ok(units)
+    }
+
+    /// Checks and runs script text given in memory as if it were a file named `name` (for a
+    /// host program that holds the text, not a file): imports resolve against the current
+    /// directory, as at the prompt. Returns warnings on success.
+    pub fn run_source(
+        &mut self,
+        name: &str,
+        text: &str,
+    ) -> Result<Vec<Diagnostic>, Vec<Diagnostic>> {
+        let units = self.load_source(name, text)?;
+        let diags = self.check(&units);
+        if diags.iter().any(|d| d.is_error()) {
+            return Err(diags);
+        }
+        self.check_overrides(&units).map_err(|d| vec![d])?;
+        self.run(&units, &mut |_, _| {}).map_err(|d| {
+            let mut all = diags.clone();
+            all.push(d);
+            all
+        })?;
+        Ok(diags)
+    }
+
+    /// Declares a global before any script runs, for the checker and the interpreter alike
+    /// (a host program handing the script a value, such as a cache it filled itself). The
+    /// global is declared in a source named `<host>` holding just its name, so a script that
+    /// declares the same name again is shown where the first one came from.
+    pub fn define_global(&mut self, name: &str, ty: crate::check::types::Type, value: Value) {
+        let file = self.sources.borrow_mut().add("<host>", name);
+        self.env.globals.insert(
+            name.to_string(),
+            check::VarInfo {
+                ty: ty.clone(),
+                span: Span::new(file, 0, name.len()),
+            },
+        );
+        self.interp.define_global(name, ty, value);
+    }
+
     /// Evaluates one REPL input (possibly several statements and functions). Values of
     /// expression statements go to `on_value`. On an error the session's state stays as it
     /// was before the statement that failed.

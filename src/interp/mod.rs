@@ -182,6 +182,12 @@ impl Interpreter {
         all
     }
 
+    /// Sets a global outside any script (see `Session::define_global`).
+    pub fn define_global(&mut self, name: &str, ty: Type, value: Value) {
+        let value = value.convert(&ty);
+        self.globals.insert(name.to_string(), Slot { value, ty });
+    }
+
     pub fn global(&self, name: &str) -> Option<&Value> {
         self.globals.get(name).map(|s| &s.value)
     }
