@@ -1,7 +1,8 @@
 """felt, the field-expression language and volume renderer, from Python.
 
 A Session runs felt scripts in this process. Values come back as Python values; caches and
-sampled fields as NumPy arrays (felt.Grid). See the README's "From Python" section.
+sampled fields as NumPy arrays (felt.Grid), rendered images through read_image. See the
+README's "From Python" section.
 """
 
 from os import PathLike
@@ -98,3 +99,8 @@ class Session:
     ) -> None:
         """Declares a cache global for the next runs from an array indexed [i, j, k] (or
         [i, j, k, c] with 3 or 9 components). Values must be finite."""
+
+def read_image(path: str | PathLike[str]) -> dict[str, np.ndarray]:
+    """The channels of an OpenEXR image `render` wrote (R, G, B, A and every AOV), by name,
+    each a float32 array indexed [row, column] with row 0 at the top."""
+    ...

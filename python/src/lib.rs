@@ -1,6 +1,7 @@
 //! The Python module `felt`: a `Session` that runs felt scripts in the calling process and
 //! hands their values to Python — numbers, vectors, strings and arrays as Python values,
-//! caches and sampled fields as NumPy arrays — and takes params and NumPy arrays in.
+//! caches and sampled fields as NumPy arrays, rendered EXR images as NumPy channels — and takes
+//! params and NumPy arrays in.
 //!
 //! The key decision is that a `Session` is a felt engine (memory budget, interrupt flag,
 //! worker pool) that outlives its runs, while each run gets a fresh felt session on that
@@ -11,6 +12,7 @@
 
 mod diagnostics;
 mod grids;
+mod image;
 mod run;
 mod sigint;
 mod values;
@@ -31,6 +33,7 @@ fn felt_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<run::Session>()?;
     m.add_class::<diagnostics::PyDiagnostic>()?;
     m.add_class::<grids::Grid>()?;
+    m.add_function(wrap_pyfunction!(image::read_image, m)?)?;
     m.add("FeltError", m.py().get_type::<FeltError>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

@@ -7,7 +7,7 @@
 //! aliases, `felt doc render`, and the defaults table in docs/language.md (a test compares
 //! them). The one key decision: rows are applied in the table's order, not the call's, and a
 //! rule between keywords (`shadowcell` with `shadows = "march"`, `sky` without the path
-//! tracer) is checked once, after every row, in [`RenderOptions::finish`]; so adding a keyword
+//! tracer) is checked once, after every row, in `RenderOptions::finish`; so adding a keyword
 //! is one row here plus the code that reads its field.
 //!
 //! The table stays below the interpreter: values arrive as [`Setting`]s, converted by the
