@@ -362,20 +362,7 @@ impl Session {
         } else {
             format!("{trimmed};")
         };
-        let unit = self.parse_text(&name, &text)?;
-        let mut units = Vec::new();
-        let mut stack = Vec::new();
-        for item in &unit.program.items {
-            if let Item::Import(import) = item {
-                self.load_recursive(
-                    Path::new(&import.path),
-                    Some(import.span),
-                    &mut stack,
-                    &mut units,
-                )?;
-            }
-        }
-        units.push(unit);
+        let units = self.load_source(&name, &text)?;
         let diags = self.check(&units);
         if diags.iter().any(|d| d.is_error()) {
             return Err(diags);
