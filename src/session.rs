@@ -273,12 +273,17 @@ impl Session {
         if !self.at_prompt && self.interp.files.script.is_none() {
             self.interp.files.script = path.canonicalize().ok();
         }
-        let diags = self.check(&units);
+        self.check_and_run(&units)
+    }
+
+    /// Checks loaded units and `--set` values, then runs them; returns the warnings.
+    fn check_and_run(&mut self, units: &[Unit]) -> Result<Vec<Diagnostic>, Vec<Diagnostic>> {
+        let diags = self.check(units);
         if diags.iter().any(|d| d.is_error()) {
             return Err(diags);
         }
-        self.check_overrides(&units).map_err(|d| vec![d])?;
-        self.run(&units, &mut |_, _| {}).map_err(|d| {
+        self.check_overrides(units).map_err(|d| vec![d])?;
+        self.run(units, &mut |_, _| {}).map_err(|d| {
             let mut all = diags.clone();
             all.push(d);
             all
@@ -315,17 +320,7 @@ impl Session {
         text: &str,
     ) -> Result<Vec<Diagnostic>, Vec<Diagnostic>> {
         let units = self.load_source(name, text)?;
-        let diags = self.check(&units);
-        if diags.iter().any(|d| d.is_error()) {
-            return Err(diags);
-        }
-        self.check_overrides(&units).map_err(|d| vec![d])?;
-        self.run(&units, &mut |_, _| {}).map_err(|d| {
-            let mut all = diags.clone();
-            all.push(d);
-            all
-        })?;
-        Ok(diags)
+        self.check_and_run(&units)
     }
 
     /// Declares a global before any script runs, for the checker and the interpreter alike

@@ -722,12 +722,10 @@ fn openjd_cli_checks_and_runs_the_template() {
     assert_frames_match(reference_frames().path(), dir.path());
 }
 
-/// Opt-in: the submit script on a real single-node Slurm (set up by `.ci/slurm-node`), waited
-/// for with `sbatch --wait`, makes the images `felt run` makes.
-#[test]
-fn slurm_runs_the_array_and_the_dependent_merge() {
+/// Whether `sbatch` is installed (opt-in) and a Slurm node is up to run jobs; says why not.
+fn slurm_node_up() -> bool {
     if !peer("sbatch") {
-        return;
+        return false;
     }
     let ready = Command::new("sinfo").args(["-h", "-o", "%T"]).output();
     let states = ready.map(|o| text(&o.stdout)).unwrap_or_default();
@@ -736,6 +734,16 @@ fn slurm_runs_the_array_and_the_dependent_merge() {
             "skipped: no Slurm node is up (sinfo says: {})",
             states.trim()
         );
+        return false;
+    }
+    true
+}
+
+/// Opt-in: the submit script on a real single-node Slurm (set up by `.ci/slurm-node`), waited
+/// for with `sbatch --wait`, makes the images `felt run` makes.
+#[test]
+fn slurm_runs_the_array_and_the_dependent_merge() {
+    if !slurm_node_up() {
         return;
     }
     let (dir, script) = scene_copy();

@@ -185,16 +185,7 @@ fn openjd_cli_runs_the_simulation_once_before_the_bands() {
 /// array after it and the merge after that, making the frames a single machine makes.
 #[test]
 fn slurm_runs_the_simulation_then_the_array_and_the_merge() {
-    if !peer("sbatch") {
-        return;
-    }
-    let ready = Command::new("sinfo").args(["-h", "-o", "%T"]).output();
-    let states = ready.map(|o| text(&o.stdout)).unwrap_or_default();
-    if !states.contains("idle") && !states.contains("mix") && !states.contains("alloc") {
-        eprintln!(
-            "skipped: no Slurm node is up (sinfo says: {})",
-            states.trim()
-        );
+    if !slurm_node_up() {
         return;
     }
     let (dir, sim, shot) = simulated_scene();
