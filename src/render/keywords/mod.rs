@@ -1,0 +1,307 @@
+//! `render`'s keywords, declared once: one row per keyword with its type, its default as the
+//! docs state it, its allowed strings, its aliases, one line of meaning, and the function that
+//! applies a given value to the render's options.
+//!
+//! Everything that needs to know the keywords reads this table: the builtin's signature and
+//! its loop over given keywords (`interp/builtins/rendering.rs`), the checker's choices and
+//! aliases, `felt doc render`, and the defaults table in docs/language.md (a test compares
+//! them). The one key decision: rows are applied in the table's order, not the call's, and a
+//! rule between keywords (`shadowcell` with `shadows = "march"`, `sky` without the path
+//! tracer) is checked once, after every row, in `RenderOptions::finish`; so adding a keyword
+//! is one row here plus the code that reads its field.
+//!
+//! The table stays below the interpreter: values arrive as [`Setting`]s, converted by the
+//! builtin according to each row's [`KeywordType`].
+
+use super::RenderSettings;
+use super::settings::{Adaptive, Integrator};
+use super::tonemap::ToneMap;
+use super::view::View;
+use crate::failure::{Failure, Outcome};
+use crate::sample::Aabb;
+use glam::DVec3;
+
+/// A keyword's type in `render`'s signature, and how the builtin converts its value.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum KeywordType {
+    /// A whole number above zero.
+    Count,
+    Int,
+    Float,
+    /// A float that must be finite and above zero.
+    PositiveFloat,
+    Vector,
+    /// A float, or a vector with one value per colour channel.
+    FloatOrVector,
+    Bool,
+    Str,
+    Strings,
+    /// A domain, handed on as its box.
+    Domain,
+    /// A scalar field: an input of the scene, not a setting (the builtin reads it itself).
+    ScalarField,
+    /// A vector field, an input of the scene like `ScalarField`.
+    VectorField,
+}
+
+impl KeywordType {
+    /// The types as `render`'s signature writes them (two for a float-or-vector keyword).
+    fn signature_types(self) -> &'static [&'static str] {
+        match self {
+            KeywordType::Count | KeywordType::Int => &["int"],
+            KeywordType::Float | KeywordType::PositiveFloat => &["float"],
+            KeywordType::Vector => &["vector"],
+            KeywordType::FloatOrVector => &["float", "vector"],
+            KeywordType::Bool => &["bool"],
+            KeywordType::Str => &["string"],
+            KeywordType::Strings => &["string[]"],
+            KeywordType::Domain => &["domain"],
+            KeywordType::ScalarField => &["scalarfield"],
+            KeywordType::VectorField => &["vectorfield"],
+        }
+    }
+
+    /// The type as the docs' table names it.
+    fn doc_name(self) -> &'static str {
+        match self {
+            KeywordType::Count => "int > 0",
+            KeywordType::Int => "int",
+            KeywordType::Float => "float",
+            KeywordType::PositiveFloat => "float > 0",
+            KeywordType::Vector => "vector",
+            KeywordType::FloatOrVector => "float or vector",
+            KeywordType::Bool => "bool",
+            KeywordType::Str => "string",
+            KeywordType::Strings => "string[]",
+            KeywordType::Domain => "domain",
+            KeywordType::ScalarField => "scalarfield",
+            KeywordType::VectorField => "vectorfield",
+        }
+    }
+}
+
+/// A keyword's value, converted by the builtin according to the row's type.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Setting {
+    Int(i64),
+    Float(f64),
+    Vector(DVec3),
+    Bool(bool),
+    Str(String),
+    Strings(Vec<String>),
+    Box(Aabb),
+}
+
+impl Setting {
+    fn int(&self) -> i64 {
+        match self {
+            Setting::Int(n) => *n,
+            Setting::Float(v) => *v as i64,
+            _ => 0,
+        }
+    }
+
+    fn float(&self) -> f64 {
+        match self {
+            Setting::Float(v) => *v,
+            Setting::Int(n) => *n as f64,
+            _ => f64::NAN,
+        }
+    }
+
+    fn vector(&self) -> DVec3 {
+        match self {
+            Setting::Vector(v) => *v,
+            other => DVec3::splat(other.float()),
+        }
+    }
+
+    fn text(&self) -> &str {
+        match self {
+            Setting::Str(s) => s,
+            _ => "",
+        }
+    }
+}
+
+/// Allowed strings of a keyword: the noun the checker uses in its messages, and the values.
+pub type Choices = (&'static str, &'static [&'static str]);
+
+/// One keyword of `render`.
+pub struct Keyword {
+    pub name: &'static str,
+    pub kind: KeywordType,
+    /// The default, as the docs state it.
+    pub default: &'static str,
+    pub choices: Option<Choices>,
+    /// What other renderers call it, so a TD's habit finds felt's word.
+    pub aliases: &'static [&'static str],
+    pub doc: &'static str,
+    /// Applies a given value; `None` for a scene input the builtin reads itself.
+    pub apply: Option<fn(&mut RenderOptions, &Setting) -> Outcome<()>>,
+}
+
+/// The settings a `render` call makes: the renderer's, and how the image is written.
+pub struct RenderOptions {
+    pub settings: RenderSettings,
+    pub tonemap: Option<ToneMap>,
+    pub view: View,
+    pub exr_half: bool,
+    tonemap_name: Option<String>,
+    brightness: Option<f64>,
+    gamma: Option<f64>,
+    adaptive: bool,
+    /// Whether the call gave a velocity (motion blur); the builtin says so.
+    pub motion: bool,
+    given: Vec<&'static str>,
+}
+
+impl Default for RenderOptions {
+    fn default() -> RenderOptions {
+        RenderOptions {
+            settings: RenderSettings::default(),
+            tonemap: None,
+            view: View::Standard,
+            exr_half: false,
+            tonemap_name: None,
+            brightness: None,
+            gamma: None,
+            adaptive: false,
+            motion: false,
+            given: Vec::new(),
+        }
+    }
+}
+
+impl RenderOptions {
+    /// The options from the keywords given: `value` converts the named keyword's argument
+    /// (`None` when it was not given). Rows apply in the table's order, then the rules
+    /// between keywords are checked.
+    pub fn from_keywords(
+        motion: bool,
+        mut value: impl FnMut(&Keyword) -> Outcome<Option<Setting>>,
+    ) -> Outcome<RenderOptions> {
+        let mut options = RenderOptions {
+            motion,
+            ..RenderOptions::default()
+        };
+        for keyword in KEYWORDS {
+            let Some(apply) = keyword.apply else { continue };
+            if let Some(setting) = value(keyword)? {
+                apply(&mut options, &setting)?;
+                options.given.push(keyword.name);
+            }
+        }
+        options.finish()?;
+        Ok(options)
+    }
+
+    fn given(&self, name: &str) -> bool {
+        self.given.contains(&name)
+    }
+
+    /// The rules between keywords, checked once every row is applied.
+    fn finish(&mut self) -> Outcome<()> {
+        let s = &mut self.settings;
+        if self.adaptive {
+            // Adaptive stepping takes the step as its longest step.
+            let step = s.step.ok_or_else(|| {
+                Failure::new("adaptive stepping needs a step")
+                    .with_help("pass step = the longest step to take")
+            })?;
+            s.adaptive = Some(Adaptive::around(step));
+        }
+        if !self.motion && (self.given("shutter") || self.given("shutterposition")) {
+            return Err(Failure::new("shutter and shutterposition need a velocity")
+                .with_help("pass velocity = the medium's velocity field (world units per frame)"));
+        }
+        if self.settings.integrator == Integrator::March
+            && (self.given("bounces") || self.given("sky"))
+        {
+            return Err(Failure::new("bounces and sky belong to the path tracer")
+                .with_help("add integrator = \"path\""));
+        }
+        self.tonemap = match &self.tonemap_name {
+            Some(name) => Some(ToneMap::parse(name, self.brightness, self.gamma)?),
+            None if self.brightness.is_some() || self.gamma.is_some() => {
+                return Err(
+                    Failure::new("brightness and gamma belong to tonemap = \"log\"")
+                        .with_help("add tonemap = \"log\""),
+                );
+            }
+            None => None,
+        };
+        Ok(())
+    }
+}
+
+/// `render(...)`'s signatures: the scene's inputs, then every row of the table (a
+/// float-or-vector row makes one form per type).
+pub fn signatures() -> Vec<String> {
+    let variants = KEYWORDS
+        .iter()
+        .map(|k| k.kind.signature_types().len())
+        .max()
+        .unwrap_or(1);
+    (0..variants)
+        .map(|form| {
+            let rows: Vec<String> = KEYWORDS
+                .iter()
+                .map(|k| {
+                    let types = k.kind.signature_types();
+                    format!("{} {}?", types[form.min(types.len() - 1)], k.name)
+                })
+                .collect();
+            format!(
+                "render(string path, scalarfield density, vectorfield color?, \
+                 vectorfield emission?, camera camera, light[] lights?, {}) -> void",
+                rows.join(", ")
+            )
+        })
+        .collect()
+}
+
+/// The keywords as a Markdown table: keyword, type, default, meaning (and allowed strings).
+pub fn markdown_table() -> String {
+    let mut text = String::from("| keyword | type | default | meaning |\n|---|---|---|---|\n");
+    for k in KEYWORDS {
+        let mut meaning = k.doc.to_string();
+        if let Some((_, values)) = k.choices {
+            let quoted: Vec<String> = values.iter().map(|v| format!("`\"{v}\"`")).collect();
+            meaning.push_str(&format!(" ({})", quoted.join(", ")));
+        }
+        text.push_str(&format!(
+            "| `{}` | {} | {} | {} |\n",
+            k.name,
+            k.kind.doc_name(),
+            k.default,
+            meaning
+        ));
+    }
+    text
+}
+
+/// The keywords as `felt doc render` lists them.
+pub fn doc_text() -> String {
+    let mut text = String::from("    keywords (name, type, default: meaning):\n");
+    for k in KEYWORDS {
+        text.push_str(&format!(
+            "      {:<13} {:<16} {}: {}",
+            k.name,
+            k.kind.doc_name(),
+            k.default,
+            k.doc
+        ));
+        if let Some((_, values)) = k.choices {
+            text.push_str(&format!(" ({})", values.join(", ")));
+        }
+        text.push('\n');
+    }
+    text
+}
+
+mod table;
+#[cfg(test)]
+mod tests;
+
+pub use table::KEYWORDS;
