@@ -140,3 +140,31 @@ fn a_csv_file_may_start_with_a_byte_order_mark() {
     let outcome = load_file("marked.csv", &marked);
     assert_eq!(lines_of(outcome)[1], "2");
 }
+
+/// Dots outside a cache's domain: `splat` counts every particle it drops, and `flamesplat`,
+/// which drops the same dots, reports the same count once more than 1 % of them fall outside.
+#[test]
+fn flamesplat_counts_the_dots_outside_as_splat_does() {
+    let script = format!(
+        "{FLAME}
+domain small((-0.8, -0.8, -0.8), (1.6, 1.6, 1.6), (0, 0, 0), 0.1);
+particles p = flamewisp(guides, maps, weights, colors, 20000, 3);
+scalarcache stored(small);
+splat(stored, p);
+scalarcache made(small);
+flamesplat(made, guides, maps, weights, colors, 20000, 3);
+"
+    );
+    let outcome = run_source("outside.felt", &script);
+    assert!(outcome.ok, "{}", outcome.rendered);
+    let counts: Vec<&str> = outcome
+        .diagnostics
+        .iter()
+        .filter(|d| d.message.contains("were not splatted"))
+        .map(|d| d.message.split(' ').next().unwrap_or_default())
+        .collect();
+    assert_eq!(counts.len(), 2, "{}", outcome.rendered);
+    assert_eq!(counts[0], counts[1], "{}", outcome.rendered);
+    let outside: u64 = counts[0].parse().unwrap();
+    assert!(outside * 100 > 40_000, "{outside}");
+}
