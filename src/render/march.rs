@@ -120,6 +120,8 @@ pub struct Frame<'a> {
     pub bounds: Aabb,
     pub occupancy: &'a Occupancy,
     pub illumination: &'a Illumination<'a>,
+    /// The albedo model's indirect light, read at every dense sample.
+    pub indirect: Option<&'a super::indirect::IndirectGrid>,
     pub settings: &'a RenderSettings,
     pub step: f64,
     /// AOV values per pixel, see `aov_layout`.
@@ -442,6 +444,9 @@ impl<'a> Worker<'a> {
                     DVec3::ONE
                 };
                 let mut total = frame.illumination.ambient;
+                if let Some(grid) = frame.indirect {
+                    total += grid.at(b.dense_position[j]);
+                }
                 let albedo = match s.albedo_scales() {
                     None => albedo,
                     Some((per_colour, per_ambient)) => {

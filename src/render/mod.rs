@@ -21,6 +21,7 @@ pub mod cie1931;
 pub mod exr_header;
 pub mod exr_order;
 pub mod image;
+pub mod indirect;
 pub mod keywords;
 pub mod light;
 mod lighting;
@@ -297,6 +298,7 @@ pub fn render_with_stats(
 
     let started = Instant::now();
     let illumination = Illumination::new(scene.density, &scene.lights, settings, bounds, step)?;
+    let indirect = indirect_grid(scene, settings, still)?;
     let shadow_seconds = started.elapsed().as_secs_f64();
     let occupancy = Occupancy::build(seen_density, seen_emission, bounds, step);
     let frame = Frame {
@@ -309,6 +311,7 @@ pub fn render_with_stats(
         bounds,
         occupancy: &occupancy,
         illumination: &illumination,
+        indirect: indirect.as_ref(),
         settings,
         step,
         aov_count: aov_names.len(),
@@ -386,6 +389,28 @@ pub fn render_with_stats(
     }
     stats.density_reads_grids = !scene.density.grids().is_empty();
     Ok((image, stats))
+}
+
+/// The march's grid of indirect light, where the render has one and something lights it.
+fn indirect_grid(
+    scene: &Scene,
+    settings: &RenderSettings,
+    bounds: Aabb,
+) -> Outcome<Option<indirect::IndirectGrid>> {
+    let Some(grid) = settings.indirect_grid() else {
+        return Ok(None);
+    };
+    if scene.lights.is_empty() && settings.sky == DVec3::ZERO && scene.emission.is_none() {
+        return Ok(None);
+    }
+    let majorants = path::majorant::Majorants::build(
+        scene.density,
+        scene.emission,
+        bounds,
+        path::majorant::MAJORANT_CELLS,
+    )?;
+    let arrivals = path::Arrivals::new(scene, settings, bounds, &majorants);
+    indirect::IndirectGrid::estimate(&arrivals, &majorants, bounds, grid, settings.seed).map(Some)
 }
 
 fn check_width(what: &str, field: &dyn FieldSampler, width: usize) -> Outcome<()> {

@@ -164,12 +164,24 @@ pub struct RenderSettings {
     /// Path tracer: radiance of a uniform sky around the render box, seen by every path that
     /// leaves the box after scattering (so it is shadowed by the medium).
     pub sky: DVec3,
+    /// March in the albedo model: the grid of indirect light (orders ≥ 2, the sky, scattered
+    /// emission), or `None` for single scattering alone (`multiscatter = 0`, or the octaves).
+    pub indirect: Option<super::indirect::IndirectSettings>,
     /// Motion blur (with a velocity): the shutter's length in frames and where it opens.
     pub shutter: f64,
     pub shutter_position: super::motion::ShutterPosition,
 }
 
 impl RenderSettings {
+    /// The march's indirect grid, where this render has one: the march in the albedo model
+    /// with neither single scattering nor octaves asked for.
+    pub fn indirect_grid(&self) -> Option<super::indirect::IndirectSettings> {
+        match (self.integrator, self.albedo, &self.multiscatter) {
+            (Integrator::March, Some(_), None) => self.indirect,
+            _ => None,
+        }
+    }
+
     /// The shutter's open and close times in frames, around the frame at 0.
     pub fn shutter_interval(&self) -> (f64, f64) {
         self.shutter_position.interval(self.shutter)
@@ -198,6 +210,7 @@ impl Default for RenderSettings {
             integrator: Integrator::March,
             bounces: 64,
             sky: DVec3::ZERO,
+            indirect: Some(super::indirect::IndirectSettings::default()),
             shutter: 0.5,
             shutter_position: super::motion::ShutterPosition::Center,
         }
@@ -346,9 +359,15 @@ impl RenderSettings {
         }
         match self.integrator {
             Integrator::March => {
-                if self.sky != DVec3::ZERO {
-                    return Err(Failure::new("sky is the path tracer's shadowed sky light")
-                        .with_help("add integrator = \"path\", or light the march with ambient"));
+                if self.sky != DVec3::ZERO && self.indirect_grid().is_none() {
+                    return Err(Failure::new(
+                        "the march shows sky light through its indirect grid, which this render \
+                         does not have",
+                    )
+                    .with_help(
+                        "the grid needs the albedo model and no multiscatter octaves: add \
+                         albedo = 1 and leave out multiscatter (or light with ambient)",
+                    ));
                 }
                 if self.aovs.variance {
                     return Err(Failure::new("the variance AOV belongs to the path tracer")

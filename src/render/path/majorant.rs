@@ -189,6 +189,25 @@ impl Majorants {
         self.density.iter().copied().fold(0.0, f64::max)
     }
 
+    /// Whether any cell overlapping `region` may hold density (parts outside the box hold
+    /// none).
+    pub fn any_density(&self, region: &Aabb) -> bool {
+        let mut lo = [0usize; 3];
+        let mut hi = [0usize; 3];
+        for a in 0..3 {
+            let from = (region.min[a] - self.bounds.min[a]) / self.cell[a];
+            let to = (region.max[a] - self.bounds.min[a]) / self.cell[a];
+            if to < 0.0 || from >= self.counts[a] as f64 {
+                return false;
+            }
+            lo[a] = from.floor().max(0.0) as usize;
+            hi[a] = (to.floor().max(0.0) as usize).min(self.counts[a] - 1);
+        }
+        (lo[2]..=hi[2]).any(|k| {
+            (lo[1]..=hi[1]).any(|j| (lo[0]..=hi[0]).any(|i| self.density[self.index([i, j, k])] > 0.0))
+        })
+    }
+
     /// The density bound of the cell holding `p` (clamped into the grid).
     pub fn at(&self, p: DVec3) -> f64 {
         let c = [0, 1, 2].map(|a| {

@@ -73,6 +73,56 @@ struct Frame<'a> {
     motion: Option<&'a Motion<'a>>,
 }
 
+/// What becomes of a path that leaves the box without scattering.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Unscattered {
+    /// A camera ray: the sky is not drawn behind the medium; its transmittance is the alpha.
+    Transmitted,
+    /// A ray from a point inside the medium: it sees the sky, shadowed along the way.
+    SeesSky,
+}
+
+/// The path tracer's estimate of the light arriving at points inside the medium, for the
+/// march's indirect light (`render::indirect`): the same medium, lights and sky as a
+/// path-traced render of the scene.
+pub(crate) struct Arrivals<'a> {
+    frame: Frame<'a>,
+}
+
+impl<'a> Arrivals<'a> {
+    pub fn new(
+        scene: &'a Scene<'a>,
+        settings: &'a RenderSettings,
+        bounds: Aabb,
+        majorants: &'a Majorants,
+    ) -> Arrivals<'a> {
+        Arrivals {
+            frame: Frame::new(scene, settings, bounds, majorants, None),
+        }
+    }
+
+    /// One thread's evaluators of the medium.
+    pub fn medium(&self) -> Medium<'a> {
+        self.frame.medium()
+    }
+
+    /// One estimate of the radiance arriving at `origin` from `−direction` that is not the
+    /// lights' unscattered light there: scattered light, emission and the sky, each shadowed
+    /// by the medium in between. The estimate is unbiased and carries `bounces` scatterings.
+    pub fn arriving(
+        &self,
+        medium: &mut Medium,
+        origin: DVec3,
+        direction: DVec3,
+        random: &mut PathRandom,
+    ) -> DVec3 {
+        let ray = Ray { origin, direction };
+        self.frame
+            .trace(medium, ray, random, Unscattered::SeesSky)
+            .0
+    }
+}
+
 /// One row of pixels.
 struct Row {
     rgba: Vec<[f32; 4]>,
@@ -107,21 +157,7 @@ pub fn render(
     let started = Instant::now();
     let majorants = Majorants::build(density, emission, bounds, MAJORANT_CELLS)?;
     let majorant_seconds = started.elapsed().as_secs_f64();
-    let mut emitters: Vec<Emitter> = scene.lights.iter().map(Emitter::Delta).collect();
-    if settings.sky != DVec3::ZERO {
-        emitters.push(Emitter::Sky(settings.sky));
-    }
-    let frame = Frame {
-        scene,
-        settings,
-        raster: scene.camera.raster(settings.width, settings.height),
-        bounds,
-        majorants: &majorants,
-        emitters,
-        // The albedo model always: without `albedo` the medium scatters all it extinguishes.
-        albedo: settings.albedo.unwrap_or(1.0),
-        motion,
-    };
+    let frame = Frame::new(scene, settings, bounds, &majorants, motion);
     let rows = band::rows(settings.height)?;
     let progress = Progress::new(rows.len() as u64);
     let tracing = Instant::now();
@@ -189,6 +225,30 @@ fn channel(value: f64, bad: &mut u64) -> f32 {
 }
 
 impl<'a> Frame<'a> {
+    fn new(
+        scene: &'a Scene<'a>,
+        settings: &'a RenderSettings,
+        bounds: Aabb,
+        majorants: &'a Majorants,
+        motion: Option<&'a Motion<'a>>,
+    ) -> Frame<'a> {
+        let mut emitters: Vec<Emitter> = scene.lights.iter().map(Emitter::Delta).collect();
+        if settings.sky != DVec3::ZERO {
+            emitters.push(Emitter::Sky(settings.sky));
+        }
+        Frame {
+            scene,
+            settings,
+            raster: scene.camera.raster(settings.width, settings.height),
+            bounds,
+            majorants,
+            emitters,
+            // The albedo model always: without `albedo` the medium scatters all it extinguishes.
+            albedo: settings.albedo.unwrap_or(1.0),
+            motion,
+        }
+    }
+
     fn medium(&self) -> Medium<'a> {
         Medium::new(
             self.scene.density,
@@ -220,7 +280,8 @@ impl<'a> Frame<'a> {
                 }
                 let mut random = PathRandom::new(s.seed, pixel, sample as u64);
                 let ray = self.raster.ray(x, y, random.uniform(), random.uniform());
-                let (radiance, transmittance) = self.trace(medium, ray, &mut random);
+                let (radiance, transmittance) =
+                    self.trace(medium, ray, &mut random, Unscattered::Transmitted);
                 sum += radiance;
                 squares += radiance * radiance;
                 transmitted += transmittance.element_sum() / 3.0;
@@ -246,9 +307,16 @@ impl<'a> Frame<'a> {
         row
     }
 
-    /// One path from the camera along `ray`: the radiance it carries back, and the camera
-    /// ray's transmittance (the path's weight if it left the box without scattering, else 0).
-    fn trace(&self, medium: &mut Medium, mut ray: Ray, random: &mut PathRandom) -> (DVec3, DVec3) {
+    /// One path along `ray`: the radiance it carries back, and the ray's transmittance (the
+    /// path's weight if it left the box without scattering, else 0). What a path that never
+    /// scattered sees of the sky is `unscattered`'s to say.
+    fn trace(
+        &self,
+        medium: &mut Medium,
+        mut ray: Ray,
+        random: &mut PathRandom,
+        unscattered: Unscattered,
+    ) -> (DVec3, DVec3) {
         let s = self.settings;
         let mut weight = DVec3::ONE;
         let mut radiance = DVec3::ZERO;
@@ -261,7 +329,9 @@ impl<'a> Frame<'a> {
             };
             let t = match flight {
                 Flight::Absorbed => return (radiance, DVec3::ZERO),
-                Flight::Escaped if order == 0 => return (radiance, weight),
+                Flight::Escaped if order == 0 && unscattered == Unscattered::Transmitted => {
+                    return (radiance, weight);
+                }
                 Flight::Escaped => {
                     for emitter in &self.emitters {
                         radiance += weight * emitter.escaping(ray.direction);

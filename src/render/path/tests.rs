@@ -256,6 +256,8 @@ fn one_bounce_equals_the_marchs_single_scattering() {
         path.bounces = 1;
         let mut march = path.clone();
         march.integrator = Integrator::March;
+        // Single scattering alone: no grid of indirect light.
+        march.indirect = None;
         march.aovs.variance = false;
         march.spp = 4;
         march.step = Some(0.004);
