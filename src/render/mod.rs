@@ -106,6 +106,11 @@ pub struct RenderStats {
     /// biased), and where the first was.
     pub above_majorant: u64,
     pub first_above_majorant: Option<glam::DVec3>,
+    /// March: the indirect grid's cells and those estimated, and its seconds (within
+    /// `shadow_seconds`); or why the render has none although its settings ask for one.
+    pub indirect_cells: (usize, usize),
+    pub indirect_seconds: f64,
+    pub indirect_skipped: Option<String>,
 }
 
 /// A render's warning for the script author: what went wrong, and what might fix it.
@@ -177,6 +182,16 @@ impl RenderStats {
                 ),
                 help: "the density's interval bounds are wrong somewhere: render with the march \
                        to compare, and report the field",
+            });
+        }
+        if let Some(why) = &self.indirect_skipped {
+            warnings.push(RenderWarning {
+                message: format!(
+                    "render: {why}, so this image has single scattering only: no light \
+                     scattered more than once"
+                ),
+                help: "read the density from a cache, or pass multiscatter = 0 to ask for \
+                       single scattering",
             });
         }
         if m.bad_pixels > 0 {
@@ -298,7 +313,17 @@ pub fn render_with_stats(
 
     let started = Instant::now();
     let illumination = Illumination::new(scene.density, &scene.lights, settings, bounds, step)?;
-    let indirect = indirect_grid(scene, settings, still)?;
+    let indirect_started = Instant::now();
+    let (indirect, indirect_skipped) = match indirect_grid(scene, settings, still) {
+        Ok(grid) => (grid, None),
+        // A density whose range is unknown cannot be path-traced; with no sky asked for, the
+        // march still renders its exact single scattering, and says what it left out.
+        Err(failure) if !failure.internal && settings.sky == DVec3::ZERO => {
+            (None, Some(failure.message))
+        }
+        Err(failure) => return Err(failure),
+    };
+    let indirect_seconds = indirect_started.elapsed().as_secs_f64();
     let shadow_seconds = started.elapsed().as_secs_f64();
     let occupancy = Occupancy::build(seen_density, seen_emission, bounds, step);
     let frame = Frame {
@@ -356,6 +381,11 @@ pub fn render_with_stats(
         empty_bricks: occupancy.empty_bricks,
         shadow_seconds,
         march_seconds,
+        indirect_cells: indirect
+            .as_ref()
+            .map_or((0, 0), |g| (g.cells(), g.estimated)),
+        indirect_seconds,
+        indirect_skipped,
         ..RenderStats::default()
     };
     let channels = image.aovs.len();

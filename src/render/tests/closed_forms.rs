@@ -312,6 +312,7 @@ fn albedo_slab_lit_from_behind_the_camera_matches_single_scattering() {
                 shadows: Shadows::March,
                 phase,
                 albedo: Some(albedo),
+                indirect: None,
                 ..small(4, 4)
             };
             let image = render(&lit, &settings).unwrap();
