@@ -164,25 +164,29 @@ pub fn path(scene: &LightScene, size: usize, spp: u32) -> RenderSettings {
 }
 
 /// An image's mean brightness over a reference's, and the relative RMSE of their 4×4-block
-/// means (the mean of RGB), relative to the reference's mean.
+/// means (of the mean of RGB) over the blocks where the reference shows the medium (a block
+/// mean above 1 % of the brightest block's), relative to the reference's mean over them.
 pub fn compare(image: &[DVec3], reference: &[DVec3], size: usize) -> (f64, f64) {
     let grey = |p: &DVec3| p.element_sum() / 3.0;
     let mean = |v: &[DVec3]| v.iter().map(grey).sum::<f64>() / v.len() as f64;
-    let (mine, theirs) = (mean(image), mean(reference));
     let blocks = size / 4;
-    let mut squares = 0.0;
+    let mut pairs = Vec::with_capacity(blocks * blocks);
     for by in 0..blocks {
         for bx in 0..blocks {
             let (mut a, mut b) = (0.0, 0.0);
             for y in 4 * by..4 * by + 4 {
                 for x in 4 * bx..4 * bx + 4 {
-                    a += grey(&image[y * size + x]);
-                    b += grey(&reference[y * size + x]);
+                    a += grey(&image[y * size + x]) / 16.0;
+                    b += grey(&reference[y * size + x]) / 16.0;
                 }
             }
-            squares += ((a - b) / 16.0).powi(2);
+            pairs.push((a, b));
         }
     }
-    let rmse = (squares / (blocks * blocks) as f64).sqrt();
-    (mine / theirs, rmse / theirs)
+    let brightest = pairs.iter().map(|p| p.1).fold(0.0, f64::max);
+    let covered: Vec<_> = pairs.iter().filter(|p| p.1 > 0.01 * brightest).collect();
+    let n = covered.len() as f64;
+    let squares: f64 = covered.iter().map(|(a, b)| (a - b).powi(2)).sum();
+    let level: f64 = covered.iter().map(|p| p.1).sum::<f64>() / n;
+    (mean(image) / mean(reference), (squares / n).sqrt() / level)
 }

@@ -4,32 +4,39 @@
 //! The march computes single scattering exactly: at each sample, the lights' light attenuated
 //! along its column, weighed by the phase function. What it cannot compute per sample is the
 //! rest of the light arriving there: light scattered once or more on its way (orders ≥ 2), the
-//! sky, and the glow of emission, each shadowed by the medium in between. This grid holds that
-//! rest, averaged over all directions,
+//! sky, and the glow of emission, each shadowed by the medium in between. This grid holds the
+//! part of that rest which the phase function scatters towards the camera,
 //!
 //! ```text
-//! I(x) = 1/4π ∫ L_indirect(x, ω) dω
+//! S(x) = ∫ p(u·d) L_indirect(x, u) du,      d the direction from the camera to x
 //! ```
 //!
-//! estimated at the centre of each grid cell by `paths` path-traced rays in stratified
-//! directions (`path::Arrivals`: the reference integrator's medium, lights and sky, so the two
-//! integrators agree by construction), from origins jittered over the cell so a cell holds its
-//! mean, not a point value. The march adds `σs·I(x)` per unit length, as it adds an isotropic
-//! ambient: indirect light deep in a medium has forgotten where it came from, and an isotropic
-//! read of it is the approximation this grid makes. The one key decision: only cells a dense
-//! sample can blend are estimated (the cells whose neighbourhood the majorants do not prove
+//! estimated at the centre of each grid cell by `paths` path-traced rays whose directions `u`
+//! are drawn from the phase around `d` (`path::Arrivals`: the reference integrator's medium,
+//! lights and sky, and its first bounce from the camera, so the two integrators agree by
+//! construction), from origins jittered over the cell so a cell holds its mean, not a point
+//! value. Storing what reaches the camera, not an angular average, keeps what a low-order
+//! expansion loses in a dense cloud: there the indirect light just under a surface lit from
+//! the camera's side is a strong lobe from the sun, which a strongly forward phase scatters
+//! almost none of back to the camera. The march adds `σs·S(x)` per unit length, as it adds
+//! an ambient term. The one key decision: only cells a dense sample can blend are estimated (the cells whose neighbourhood the majorants do not prove
 //! empty), in parallel, each from its own random stream, so the grid is bit-identical for any
 //! thread count and costs nothing in empty space. Under motion blur the grid is estimated once,
 //! at the frame's time.
 
+use super::camera::Camera;
 use super::path::Arrivals;
 use super::path::majorant::Majorants;
-use super::path::sampling::{PathRandom, around};
+use super::path::sampling::{PathRandom, scatter};
+use super::path::tracking::Medium;
+use super::phase::Phase;
+use super::camera::Ray;
+use super::light::Light;
+use super::space::clip_to_box;
 use crate::failure::{Failure, Outcome};
-use crate::sample::Aabb;
+use crate::sample::{Aabb, BlockEval, FieldSampler};
 use glam::DVec3;
 use rayon::prelude::*;
-use std::f64::consts::PI;
 
 /// A stream of path-random numbers no camera path uses: the grid's paths are keyed by cell and
 /// direction, not by pixel and sample.
@@ -53,27 +60,44 @@ impl Default for IndirectSettings {
     }
 }
 
-/// The mean indirect radiance `I` at the centre of each cell of a grid on the render box.
+/// The indirect light scattered towards the camera, `S`, at the centre of each cell of a grid
+/// on the render box.
 pub struct IndirectGrid {
     bounds: Aabb,
     counts: [usize; 3],
     cell: DVec3,
-    /// Per cell (x fastest); zero where no dense sample can read it.
+    /// Per cell (x fastest), per colour channel; zero where no dense sample can read it.
     radiance: Vec<DVec3>,
     /// Cells estimated, of all.
     pub estimated: usize,
 }
 
+/// What estimating a grid reads: the path tracer's view of the medium, its majorants, the
+/// density itself (for the camera's view of each cell) and the render's camera, phase,
+/// extinction and seed.
+pub(crate) struct GridInputs<'a> {
+    pub arrivals: &'a Arrivals<'a>,
+    pub majorants: &'a Majorants,
+    pub density: &'a dyn FieldSampler,
+    pub camera: &'a Camera,
+    pub phase: Phase,
+    pub kappa: DVec3,
+    pub lights: &'a [Light],
+    pub seed: u64,
+}
+
 impl IndirectGrid {
-    /// Estimates the grid for the medium `arrivals` traces, with `occupied` telling which cells
-    /// of the same lattice may hold density.
+    /// Estimates the grid on `bounds`.
     pub(crate) fn estimate(
-        arrivals: &Arrivals,
-        majorants: &Majorants,
+        inputs: &GridInputs,
         bounds: Aabb,
         settings: IndirectSettings,
-        seed: u64,
     ) -> Outcome<IndirectGrid> {
+        let GridInputs {
+            arrivals,
+            majorants,
+            ..
+        } = *inputs;
         let size = bounds.size();
         let side = size.max_element() / settings.cells.max(1) as f64;
         let counts =
@@ -92,42 +116,33 @@ impl IndirectGrid {
                 majorants.any_density(&Aabb::new(p - cell, p + cell))
             })
             .collect();
-        let stratum = (settings.paths as f64).sqrt().ceil().max(1.0) as u32;
         let values: Vec<Option<(usize, DVec3)>> = needed
             .par_iter()
             .map_init(
-                || arrivals.medium(),
-                |medium, &index| {
+                || (arrivals.medium(), inputs.density.evaluator()),
+                |(medium, density), &index| {
                     if crate::interrupt::requested() {
                         return None;
                     }
-                    let origin = centre(unflatten(index, counts));
-                    let mut sum = DVec3::ZERO;
-                    for k in 0..settings.paths {
-                        let mut random = PathRandom::new(seed ^ GRID_STREAM, index as u64, k as u64);
-                        // Stratified over the sphere: the k-th cell of a stratum × stratum
-                        // grid on (cos θ, φ), jittered, cycling when `paths` is not a square.
-                        let (i, j) = (k % stratum, (k / stratum) % stratum);
-                        let cos_theta =
-                            1.0 - 2.0 * (f64::from(i) + random.uniform()) / f64::from(stratum);
-                        let phi = 2.0 * PI * (f64::from(j) + random.uniform()) / f64::from(stratum);
-                        let direction = around(DVec3::Z, cos_theta, phi);
-                        let jitter = DVec3::new(
-                            random.uniform() - 0.5,
-                            random.uniform() - 0.5,
-                            random.uniform() - 0.5,
-                        ) * cell;
-                        sum += arrivals.arriving(medium, origin + jitter, direction, &mut random);
-                    }
-                    Some((index, sum / f64::from(settings.paths.max(1))))
+                    let centre = centre(unflatten(index, counts));
+                    let most = path_count(inputs, density.as_mut(), centre, cell, &bounds, settings);
+                    let cell_paths = CellPaths {
+                        inputs,
+                        index,
+                        centre,
+                        cell,
+                    };
+                    Some((index, cell_paths.estimate(medium, most)))
                 },
             )
             .collect();
         let mut radiance = vec![DVec3::ZERO; total];
         for value in values {
-            let (index, mean) = value.ok_or_else(|| Failure::new("interrupted"))?;
+            let (index, light) = value.ok_or_else(|| Failure::new("interrupted"))?;
             // A non-finite estimate would spread through every read that blends it.
-            radiance[index] = if mean.is_finite() { mean } else { DVec3::ZERO };
+            if light.is_finite() {
+                radiance[index] = light;
+            }
         }
         Ok(IndirectGrid {
             bounds,
@@ -143,7 +158,7 @@ impl IndirectGrid {
         self.radiance.len()
     }
 
-    /// `I` at `p`: a trilinear blend of the centres around it, clamped at the box's faces.
+    /// `S` at `p`: a trilinear blend of the centres around it, clamped at the box's faces.
     pub fn at(&self, p: DVec3) -> DVec3 {
         let mut base = [0usize; 3];
         let mut frac = [0.0f64; 3];
@@ -173,6 +188,174 @@ impl IndirectGrid {
             }
         }
         sum
+    }
+}
+
+/// Paths per batch of a cell's estimate (rounded up to a whole number of rounds over the
+/// sampling axes), and the relative standard error of the cell's mean at which it stops.
+const BATCH: u32 = 16;
+const TOLERANCE: f64 = 0.03;
+
+/// The paths of one cell.
+struct CellPaths<'a> {
+    inputs: &'a GridInputs<'a>,
+    index: usize,
+    centre: DVec3,
+    cell: DVec3,
+}
+
+impl CellPaths<'_> {
+    /// The cell's `S`: the mean of its paths, drawn in batches until the standard error of the
+    /// mean (of the channels' sum) is within `TOLERANCE` of it, or `most` paths are drawn. A
+    /// smooth, thin medium stops after a batch; a speckled one takes every path it may. The
+    /// decision reads only the cell's own paths, so it is the same on any thread.
+    fn estimate(&self, medium: &mut Medium, most: u32) -> DVec3 {
+        let rounds = (self.inputs.lights.len() + 1) as u32;
+        let batch = BATCH.div_ceil(rounds) * rounds;
+        let (mut sum, mut squares, mut drawn) = (DVec3::ZERO, 0.0, 0u32);
+        while drawn < most.max(1) {
+            for k in drawn..drawn + batch {
+                let value = self.path(medium, k);
+                sum += value;
+                squares += value.element_sum().powi(2);
+            }
+            drawn += batch;
+            let n = f64::from(drawn);
+            let mean = sum.element_sum() / n;
+            let variance = (squares / n - mean * mean).max(0.0) / (n - 1.0);
+            if variance.sqrt() <= TOLERANCE * mean.abs() {
+                break;
+            }
+        }
+        sum / f64::from(drawn)
+    }
+
+    /// Path `k` of the cell: one sample of `S = ∫ p(u·d)·L(u) du` from a point jittered over
+    /// the cell, its direction drawn from a mixture of the phase around the view and around
+    /// the way to each light (see `towards`), weighted by the mixture's density. Path `k`
+    /// uses axis `k mod (lights + 1)`, so every batch draws each axis equally often.
+    fn path(&self, medium: &mut Medium, k: u32) -> DVec3 {
+        let GridInputs {
+            arrivals,
+            camera,
+            phase,
+            ..
+        } = *self.inputs;
+        // The jitter and the direction come from the stream a camera ray's pixel jitter uses,
+        // independent of every bounce's numbers.
+        let mut random =
+            PathRandom::new(self.inputs.seed ^ GRID_STREAM, self.index as u64, u64::from(k));
+        let jitter = DVec3::new(
+            random.uniform() - 0.5,
+            random.uniform() - 0.5,
+            random.uniform() - 0.5,
+        ) * self.cell;
+        let origin = self.centre + jitter;
+        let view = if camera.is_orthographic() {
+            camera.forward()
+        } else {
+            (origin - camera.eye)
+                .try_normalize()
+                .unwrap_or(camera.forward())
+        };
+        let axes = towards(view, origin, self.inputs.lights);
+        let chosen = axes[k as usize % axes.len()];
+        let direction = scatter(&phase, chosen, &mut random);
+        let mixture = axes
+            .iter()
+            .map(|axis| phase.relative(direction.dot(*axis)))
+            .sum::<f64>()
+            / axes.len() as f64;
+        let weight = phase.relative(direction.dot(view)) / mixture;
+        if weight > 0.0 && weight.is_finite() {
+            weight * arrivals.arriving(medium, origin, direction, &mut random)
+        } else {
+            DVec3::ZERO
+        }
+    }
+}
+
+/// The axes the directions of a cell's paths are drawn around: the view (the phase's own
+/// importance), and for each light the way towards it. Light from a light that has scattered
+/// once more, just before reaching the cell, arrives in a narrow lobe from that light's side
+/// (a forward phase scatters most of it on ahead); drawn around the view alone, a direction
+/// finds that lobe rarely and then with a large weight, and the grid shows speckles. Drawing
+/// an equal share of directions around each axis, weighted by the mixture's density (the
+/// balance heuristic), bounds every weight by the number of axes.
+fn towards(view: DVec3, origin: DVec3, lights: &[Light]) -> Vec<DVec3> {
+    std::iter::once(view)
+        .chain(lights.iter().map(|light| light.towards(origin).0))
+        .collect()
+}
+
+/// Transmittance below which a cell is hidden from the camera: its light reaches no pixel
+/// by more than this fraction, so one path estimates it well enough.
+const HIDDEN: f64 = 1e-3;
+/// Transmittance above which a cell gets all its paths; below it, paths shrink in proportion.
+const IN_VIEW: f64 = 0.1;
+
+/// How many paths the cell at `centre` gets: all of them where the camera sees into its
+/// neighbourhood, fewer in proportion where the medium in front hides it, one where the
+/// camera cannot see it at all (its value is then blended into pixels only with weights below
+/// `HIDDEN`). The camera's view is a march of the density at half a cell from where the
+/// camera ray enters the box to the cell's corner nearest the camera, at the smallest κ.
+fn path_count(
+    inputs: &GridInputs,
+    density: &mut dyn BlockEval,
+    centre: DVec3,
+    cell: DVec3,
+    bounds: &Aabb,
+    settings: IndirectSettings,
+) -> u32 {
+    let camera = inputs.camera;
+    let towards_camera = if camera.is_orthographic() {
+        -camera.forward()
+    } else {
+        (camera.eye - centre).try_normalize().unwrap_or(-camera.forward())
+    };
+    // The corner of the cell's neighbourhood (one cell around it) nearest the camera.
+    let near = centre + towards_camera.signum() * cell;
+    let back = Ray {
+        origin: near,
+        direction: towards_camera,
+    };
+    let length = match clip_to_box(&back, bounds) {
+        Some((_, exit)) => exit,
+        None => 0.0,
+    };
+    let length = if camera.is_orthographic() {
+        length
+    } else {
+        length.min((camera.eye - near).length())
+    };
+    let step = 0.5 * cell.min_element();
+    let steps = (length / step).ceil() as usize;
+    let (mut xs, mut ys, mut zs) = (Vec::new(), Vec::new(), Vec::new());
+    for n in 0..steps {
+        let p = back.at((n as f64 + 0.5) * length / steps as f64);
+        xs.push(p.x);
+        ys.push(p.y);
+        zs.push(p.z);
+    }
+    let mut values = vec![0.0; steps];
+    density.eval_f64(&xs, &ys, &zs, &mut values);
+    let column: f64 = values
+        .iter()
+        .filter(|v| v.is_finite())
+        .map(|v| v.max(0.0))
+        .sum::<f64>()
+        * length
+        / steps.max(1) as f64;
+    let kappa = [inputs.kappa.x, inputs.kappa.y, inputs.kappa.z]
+        .into_iter()
+        .fold(f64::INFINITY, f64::min);
+    let seen = (-kappa * column).exp();
+    if seen >= IN_VIEW {
+        settings.paths
+    } else if seen < HIDDEN {
+        1
+    } else {
+        ((f64::from(settings.paths) * seen / IN_VIEW).ceil() as u32).max(1)
     }
 }
 

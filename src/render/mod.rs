@@ -440,7 +440,18 @@ fn indirect_grid(
         path::majorant::MAJORANT_CELLS,
     )?;
     let arrivals = path::Arrivals::new(scene, settings, bounds, &majorants);
-    indirect::IndirectGrid::estimate(&arrivals, &majorants, bounds, grid, settings.seed).map(Some)
+    let inputs = indirect::GridInputs {
+        arrivals: &arrivals,
+        majorants: &majorants,
+        density: scene.density,
+        camera: &scene.camera,
+        phase: settings.phase,
+        kappa: settings.kappa,
+        lights: &scene.lights,
+        seed: settings.seed,
+    };
+    indirect::IndirectGrid::estimate(&inputs, bounds, grid)
+    .map(Some)
 }
 
 fn check_width(what: &str, field: &dyn FieldSampler, width: usize) -> Outcome<()> {
