@@ -246,8 +246,7 @@ fn the_tree_sitter_grammar_parses_what_felt_parses() {
     copy_grammar(&grammar_dir(), &copy);
 
     // `generate` writes src/ in place: into the copy, to compare with what is committed.
-    // At the ABI the committed parser has (14 lets editors linked against tree-sitter 0.20 to
-    // 0.24 load it).
+    // At the ABI version the committed parser was generated for.
     let committed = std::fs::read_to_string(grammar_dir().join("src/parser.c")).expect("parser.c");
     let abi = committed
         .lines()

@@ -6,9 +6,10 @@
  * and also rejects, with ERROR nodes, most of what felt's parser reports as a syntax error
  * after parsing: `param` below the top level, `func` and `import` inside a block, an
  * assignment or `++`/`--` to something other than a variable or an array element, and a
- * positional argument after a keyword one. It is more lenient in two corners: an array
- * literal `{a, b};` may start an expression statement (felt reads `{` there as a block), and
- * it does not count nesting depth or `[]` pairs.
+ * positional argument after a keyword one. It is more lenient in a few corners: an array
+ * literal `{a, b};` may start an expression statement (felt reads `{` there as a block);
+ * where `++` or `--` cannot stand, `a++b` reads as `a + +b` (felt's lexer always takes the
+ * longest operator); and it checks neither the range of number literals nor nesting depth.
  */
 
 /// <reference types="tree-sitter-cli/dsl" />
@@ -61,6 +62,14 @@ export default grammar({
   extras: $ => [/[ \t\r\n\f]/, /\uFEFF/, $.comment],
 
   word: $ => $.identifier,
+
+  // felt's lexer makes every keyword a keyword wherever it stands, so none may be a name.
+  reserved: {
+    global: _ => [
+      ...VALUE_TYPES, 'void', 'func', 'return', 'if', 'else', 'for', 'while', 'break',
+      'continue', 'true', 'false', 'param', 'import',
+    ],
+  },
 
   supertypes: $ => [$._statement, $._expression],
 
