@@ -94,10 +94,12 @@ impl<'a> Illumination<'a> {
                 weight: 1.0,
                 phase: settings.phase,
             }],
+            // In the albedo model each further octave has scattered once more, so it keeps
+            // albedo^k of the light as well.
             Some(ms) => (0..ms.octaves)
                 .map(|k| Octave {
                     extinction: ms.attenuation.powi(k as i32),
-                    weight: ms.contribution.powi(k as i32),
+                    weight: (ms.contribution * settings.albedo.unwrap_or(1.0)).powi(k as i32),
                     phase: settings.phase.scaled(ms.eccentricity.powi(k as i32)),
                 })
                 .collect(),

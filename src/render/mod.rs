@@ -111,6 +111,9 @@ pub struct RenderStats {
     pub indirect_cells: (usize, usize),
     pub indirect_seconds: f64,
     pub indirect_skipped: Option<String>,
+    /// March: multiscatter octaves whose contribution exceeds their attenuation (b > a), which
+    /// add more light than the medium scatters.
+    pub octaves_gain_energy: bool,
 }
 
 /// A render's warning for the script author: what went wrong, and what might fix it.
@@ -182,6 +185,15 @@ impl RenderStats {
                 ),
                 help: "the density's interval bounds are wrong somewhere: render with the march \
                        to compare, and report the field",
+            });
+        }
+        if self.octaves_gain_energy {
+            warnings.push(RenderWarning {
+                message: "render: the multiscatter octaves add more light than the medium \
+                          scatters: mscontribution is above msattenuation"
+                    .to_string(),
+                help: "keep mscontribution ≤ msattenuation, or leave out multiscatter for the \
+                       indirect grid, which conserves energy",
             });
         }
         if let Some(why) = &self.indirect_skipped {
@@ -386,6 +398,9 @@ pub fn render_with_stats(
             .map_or((0, 0), |g| (g.cells(), g.estimated)),
         indirect_seconds,
         indirect_skipped,
+        octaves_gain_energy: settings
+            .multiscatter
+            .is_some_and(|ms| ms.octaves > 1 && ms.contribution > ms.attenuation),
         ..RenderStats::default()
     };
     let channels = image.aovs.len();

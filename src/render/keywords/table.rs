@@ -12,15 +12,59 @@ use crate::render::view::View;
 
 fn multiscatter(o: &mut RenderOptions, v: &Setting) -> Outcome<()> {
     let octaves = v.int();
-    if !(1..=16).contains(&octaves) {
+    if !(0..=16).contains(&octaves) {
         return Err(Failure::new(format!(
-            "multiscatter takes 1 to 16 octaves, found {octaves}"
+            "multiscatter takes 0 (single scattering) or 1 to 16 octaves, found {octaves}"
+        ))
+        .with_help("leave multiscatter out for the indirect grid, which matches a path tracer"));
+    }
+    if octaves == 0 {
+        o.settings.indirect = None;
+    } else {
+        o.settings.multiscatter = Some(MultiScatter {
+            octaves: octaves as u32,
+            ..MultiScatter::default()
+        });
+    }
+    Ok(())
+}
+
+/// One of the octaves' shape parameters (`a`, `b` or `c`): it needs the octaves.
+fn octave_shape(
+    o: &mut RenderOptions,
+    v: &Setting,
+    name: &str,
+    field: fn(&mut MultiScatter) -> &mut f64,
+) -> Outcome<()> {
+    let Some(ms) = o.settings.multiscatter.as_mut() else {
+        return Err(
+            Failure::new(format!("{name} shapes the multiscatter octaves, which are not on"))
+                .with_help("add multiscatter = 3 (or more octaves)"),
+        );
+    };
+    *field(ms) = v.float();
+    Ok(())
+}
+
+fn indirect_size(o: &mut RenderOptions, v: &Setting, cells: bool) -> Outcome<()> {
+    let n = v.int();
+    let (name, most) = if cells {
+        ("indirectcells", 256)
+    } else {
+        ("indirectpaths", 65_536)
+    };
+    if !(1..=most).contains(&n) {
+        return Err(Failure::new(format!(
+            "{name} must be between 1 and {most}, found {n}"
         )));
     }
-    o.settings.multiscatter = Some(MultiScatter {
-        octaves: octaves as u32,
-        ..MultiScatter::default()
-    });
+    if let Some(grid) = o.settings.indirect.as_mut() {
+        if cells {
+            grid.cells = n as usize;
+        } else {
+            grid.paths = n as u32;
+        }
+    }
     Ok(())
 }
 
@@ -258,11 +302,56 @@ pub const KEYWORDS: &[Keyword] = &[
     Keyword {
         name: "multiscatter",
         kind: KeywordType::Int,
-        default: "none",
+        default: "none (the indirect grid, with albedo)",
         choices: None,
         aliases: &[],
-        doc: "octaves (1 to 16) of the march's approximate multiple scattering",
+        doc: "march: 0 for single scattering, or 1 to 16 octaves of the artistic approximation",
         apply: Some(multiscatter),
+    },
+    Keyword {
+        name: "msattenuation",
+        kind: KeywordType::Float,
+        default: "0.5",
+        choices: None,
+        aliases: &[],
+        doc: "octaves: `a` in [0, 1], how much thinner each further octave sees the medium",
+        apply: Some(|o, v| octave_shape(o, v, "msattenuation", |m| &mut m.attenuation)),
+    },
+    Keyword {
+        name: "mscontribution",
+        kind: KeywordType::Float,
+        default: "0.5",
+        choices: None,
+        aliases: &[],
+        doc: "octaves: `b` in [0, 1], how much each further octave adds (energy needs b ≤ a)",
+        apply: Some(|o, v| octave_shape(o, v, "mscontribution", |m| &mut m.contribution)),
+    },
+    Keyword {
+        name: "mseccentricity",
+        kind: KeywordType::Float,
+        default: "0.5",
+        choices: None,
+        aliases: &[],
+        doc: "octaves: `c` in [0, 1], how much less directional each further octave scatters",
+        apply: Some(|o, v| octave_shape(o, v, "mseccentricity", |m| &mut m.eccentricity)),
+    },
+    Keyword {
+        name: "indirectcells",
+        kind: KeywordType::Count,
+        default: "32",
+        choices: None,
+        aliases: &[],
+        doc: "march with albedo: cells of the indirect grid along the box's longest side",
+        apply: Some(|o, v| indirect_size(o, v, true)),
+    },
+    Keyword {
+        name: "indirectpaths",
+        kind: KeywordType::Count,
+        default: "64",
+        choices: None,
+        aliases: &[],
+        doc: "march with albedo: most path-traced rays per cell of the indirect grid",
+        apply: Some(|o, v| indirect_size(o, v, false)),
     },
     Keyword {
         name: "adaptive",
@@ -394,7 +483,7 @@ pub const KEYWORDS: &[Keyword] = &[
         default: "64",
         choices: None,
         aliases: &[],
-        doc: "path tracer: the most scattering events along a path (0 to 4096)",
+        doc: "the most scattering events along a path (0 to 4096); the march's for its grid",
         apply: Some(bounces),
     },
     Keyword {
@@ -403,7 +492,7 @@ pub const KEYWORDS: &[Keyword] = &[
         default: "(0, 0, 0)",
         choices: None,
         aliases: &[],
-        doc: "path tracer: radiance of a uniform sky, shadowed by the medium",
+        doc: "radiance of a uniform sky, shadowed by the medium (march: needs albedo)",
         apply: Some(|o, v| {
             o.settings.sky = v.vector();
             Ok(())
