@@ -180,7 +180,7 @@ fn choices(text: &str, quote: usize) -> Vec<CompletionItem> {
 }
 
 /// The standard library's functions: name, signature, doc line.
-fn library() -> &'static [(String, String, String)] {
+pub fn library() -> &'static [(String, String, String)] {
     static LIBRARY: OnceLock<Vec<(String, String, String)>> = OnceLock::new();
     LIBRARY.get_or_init(|| {
         crate::doc::stdlib_docs()
