@@ -261,7 +261,8 @@ fn hover_shows_felt_doc_for_builtins_and_declarations_for_names() {
     let text = "param float radius = 0.8;   // the sphere\n\
                 // A bumpy sphere.\n\
                 func scalarfield ball(float r) { return r - length(identity()) + perlin(identity()); }\n\
-                scalarfield d = ball(radius);\n";
+                scalarfield d = ball(radius);\n\
+                render(\"a.exr\", density = d, kappa = 2.0);\n";
     std::fs::write(&path, text).unwrap();
     let uri = uri_of(&path);
     let mut client = Client::start();
@@ -287,6 +288,23 @@ fn hover_shows_felt_doc_for_builtins_and_declarations_for_names() {
     assert!(
         variable.ends_with("variable `d`: scalarfield"),
         "{variable}"
+    );
+    // A keyword argument: its types in render's forms, and its row of `felt doc render`.
+    let render = String::from_utf8(felt(&["doc", "render"]).stdout).unwrap();
+    let row = render
+        .lines()
+        .map(str::trim)
+        .find(|l| l.starts_with("kappa "))
+        .unwrap();
+    let kappa = hover_at(&mut client, &uri, text, "kappa");
+    assert_eq!(
+        kappa,
+        format!("argument `kappa` of `render`: float? or vector?\n```text\n{row}\n```")
+    );
+    let density = hover_at(&mut client, &uri, text, "density =");
+    assert!(
+        density.starts_with("argument `density` of `render`: scalarfield"),
+        "{density}"
     );
     client.stop();
 }
