@@ -111,6 +111,31 @@ fn main() {
     let times = round_trips(&mut client, &path, &text, middle);
     report("generated (500 blocks)", text.lines().count(), &times);
 
+    // A burst: edits written all at once, as queue up while a long check runs.
+    let uri = uri_of(&path);
+    client.open(&uri, &text, 0);
+    client.diagnostics(&uri, 0);
+    let burst = 50;
+    for version in 1..=burst {
+        let at = json!({"line": 0, "character": 0});
+        client.notify(
+            "textDocument/didChange",
+            json!({
+                "textDocument": {"uri": uri, "version": version},
+                "contentChanges": [{"range": {"start": at, "end": at}, "text": " "}],
+            }),
+        );
+    }
+    client.diagnostics(&uri, burst);
+    let checks = client
+        .take_published_elsewhere("")
+        .iter()
+        .filter(|m| m["params"]["uri"] == uri.as_str() && m["params"]["version"].as_i64() > Some(0))
+        .count()
+        + 1;
+    println!("a burst of {burst} edits sent at once to the generated script: {checks} check(s)");
+    client.close(&uri);
+
     let mut examples: Vec<_> = std::fs::read_dir(root.join("examples"))
         .expect("examples/")
         .flatten()

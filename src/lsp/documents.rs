@@ -74,6 +74,11 @@ impl Documents {
         self.open.get(uri)
     }
 
+    /// Whether any document waits to be checked.
+    pub fn any_stale(&self) -> bool {
+        self.open.values().any(|d| d.stale)
+    }
+
     /// Marks every document to be checked again (a file they may import was saved).
     pub fn mark_all_stale(&mut self) {
         for document in self.open.values_mut() {

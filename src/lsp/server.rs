@@ -1,13 +1,14 @@
 //! The server loop: read a message, answer it, and before blocking for the next one check the
 //! buffers edited since their last check and publish what is wrong in them.
 //!
-//! The key decision is when to check. An edit only marks its buffer stale; every message
-//! already waiting is handled first (a burst of keystrokes is many `didChange`s), and only
-//! when none is waiting are the stale buffers checked, once each, at their latest text. So a
-//! fast typist costs one check per pause, not one per key, with no timer to tune. Requests
-//! are answered from the buffer's text as of that request, stale or not; they never wait for
-//! a check. Each request and each check runs under `catch_unwind`: a bug in felt becomes an
-//! error answer or an internal-error diagnostic, and the editor keeps its server.
+//! The key decision is when to check. An edit only marks its buffer stale; every message that
+//! follows within a couple of milliseconds is handled first (a burst of edits, or the
+//! keystrokes that queued up while the last check ran), and only when none comes are the
+//! stale buffers checked, once each, at their latest text (a burst holds a check back 50 ms at
+//! most). So queued edits cost one check, not one each. Requests are answered from the
+//! buffer's text as of that request, stale or not; they never wait for a check. Each request
+//! and each check runs under `catch_unwind`: a bug in felt becomes an error answer or an
+//! internal-error diagnostic, and the editor keeps its server.
 
 use super::documents::{Documents, path_of};
 use super::outline::Outline;
@@ -30,6 +31,7 @@ use lsp_types::{
 use std::collections::{BTreeMap, BTreeSet};
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::process::ExitCode;
+use std::time::{Duration, Instant};
 
 /// Serves one editor on stdin and stdout until it says `exit` or closes the pipe.
 pub fn serve() -> ExitCode {
@@ -77,6 +79,11 @@ struct Server {
     published: BTreeMap<Url, BTreeSet<Url>>,
 }
 
+/// How long after an edit the server waits for the next message before checking.
+const GRACE: Duration = Duration::from_millis(2);
+/// The longest a burst of messages may hold back a check.
+const MOST_DELAY: Duration = Duration::from_millis(50);
+
 /// What the loop does after a message.
 enum Next {
     Continue,
@@ -93,7 +100,14 @@ impl Server {
             if let Next::Stop(code) = self.handle(connection, message) {
                 return code;
             }
-            while let Ok(message) = connection.receiver.try_recv() {
+            // Edits queued behind this one are read a message at a time (the reader thread
+            // parses the next only once this one is taken), so wait briefly for each before
+            // checking, but never past `MOST_DELAY` however fast they come.
+            let deadline = Instant::now() + MOST_DELAY;
+            while self.documents.any_stale() && Instant::now() < deadline {
+                let Ok(message) = connection.receiver.recv_timeout(GRACE) else {
+                    break;
+                };
                 if let Next::Stop(code) = self.handle(connection, message) {
                     return code;
                 }
