@@ -2,10 +2,9 @@
 //! buffers edited since their last check and publish what is wrong in them.
 //!
 //! The key decision is when to check. An edit only marks its buffer stale; every message that
-//! follows within a couple of milliseconds is handled first (a burst of edits, or the
-//! keystrokes that queued up while the last check ran), and only when none comes are the
-//! stale buffers checked, once each, at their latest text (a burst holds a check back 50 ms at
-//! most). So queued edits cost one check, not one each. Requests are answered from the
+//! follows within a millisecond is handled first (a burst of edits, or the keystrokes that
+//! queued up while the last check ran), and only when none comes are the stale buffers
+//! checked, once each, at their latest text (a burst holds a check back 50 ms at most). So queued edits cost one check, not one each. Requests are answered from the
 //! buffer's text as of that request, stale or not; they never wait for a check. Each request
 //! and each check runs under `catch_unwind`: a bug in felt becomes an error answer or an
 //! internal-error diagnostic, and the editor keeps its server.
@@ -80,7 +79,7 @@ struct Server {
 }
 
 /// How long after an edit the server waits for the next message before checking.
-const GRACE: Duration = Duration::from_millis(2);
+const GRACE: Duration = Duration::from_millis(1);
 /// The longest a burst of messages may hold back a check.
 const MOST_DELAY: Duration = Duration::from_millis(50);
 
