@@ -193,6 +193,10 @@ pub enum Command {
         )]
         threads: Option<u16>,
     },
+    /// Serve an editor: a Language Server Protocol server on stdin and stdout, giving the
+    /// errors `felt check` finds as you type, hover, completion, signature help, go to
+    /// definition and document symbols.
+    Lsp,
     /// List the builtins and library functions, or describe one.
     Doc {
         /// A builtin or library function.

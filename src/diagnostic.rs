@@ -33,7 +33,7 @@ pub enum Stage {
 }
 
 impl Stage {
-    fn code(self) -> &'static str {
+    pub fn code(self) -> &'static str {
         match self {
             Stage::Syntax => "felt::syntax",
             Stage::Name => "felt::name",

@@ -26,6 +26,7 @@ pub mod grid;
 pub mod input;
 pub mod interp;
 pub mod interrupt;
+pub mod lsp;
 pub mod output;
 pub mod particles;
 pub mod paths;

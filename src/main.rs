@@ -1,4 +1,5 @@
-//! The `felt` command: run, study, check, explore (REPL) and look up (doc) field scripts.
+//! The `felt` command: run, study, check, explore (REPL), look up (doc) and edit (lsp) field
+//! scripts.
 //!
 //! The one key decision: the whole run happens on a thread with a large stack, because scripts
 //! may build field graphs thousands of nodes deep (long `advect` chains) and the checker,
@@ -224,6 +225,7 @@ fn run(cli: Cli) -> ExitCode {
             felt::repl::run()
         }
         Command::Doc { name } => felt::doc::print(name.as_deref()),
+        Command::Lsp => felt::lsp::serve(),
         Command::Merge {
             images,
             frames,

@@ -180,7 +180,32 @@ impl Session {
                 e.utf8_error().valid_up_to()
             ))]
         })?;
-        let unit = self.parse_text(&path.display().to_string(), &text)?;
+        self.load_text(path, canonical, &text, stack, units)
+    }
+
+    /// Parses a script whose text is given (an editor's unsaved buffer) as the file at
+    /// `path`, and, first, what it imports relative to that file, exactly as `load` does for
+    /// the file on disk.
+    pub fn load_buffer(&mut self, path: &Path, text: &str) -> Result<Vec<Unit>, Vec<Diagnostic>> {
+        // A buffer not yet saved has no canonical form; its own path stands in, so an import
+        // of itself is still a cycle.
+        let canonical = path.canonicalize().unwrap_or_else(|_| path.to_path_buf());
+        self.loaded.insert(canonical.clone());
+        let mut units = Vec::new();
+        self.load_text(path, canonical, text, &mut Vec::new(), &mut units)?;
+        Ok(units)
+    }
+
+    /// Parses one file's text, then loads its imports (before it, in `units`).
+    fn load_text(
+        &mut self,
+        path: &Path,
+        canonical: PathBuf,
+        text: &str,
+        stack: &mut Vec<PathBuf>,
+        units: &mut Vec<Unit>,
+    ) -> Result<(), Vec<Diagnostic>> {
+        let unit = self.parse_text(&path.display().to_string(), text)?;
         stack.push(canonical.clone());
         // Imports resolve against the importing file's path as the user named it (not its
         // canonical form), so diagnostics in imported files show paths the author recognises
