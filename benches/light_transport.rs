@@ -126,7 +126,7 @@ fn main() {
         albedo: Some(ALBEDO),
         phase: Phase::HenyeyGreenstein { g: G },
         integrator: Integrator::Path,
-        sky: SKY,
+        sky: SKY.into(),
         bounds: Some(Aabb::new(DVec3::splat(-0.6), DVec3::splat(0.6))),
         ..RenderSettings::default()
     };

@@ -192,7 +192,7 @@ fn felt_render(s: &PeerScene) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
         phase: Phase::HenyeyGreenstein { g: s.g },
         integrator: Integrator::Path,
         bounces: s.bounces,
-        sky: s.sky,
+        sky: s.sky.into(),
         bounds: Some(Aabb::new(s.grid.lo, s.grid.hi)),
         ..RenderSettings::default()
     };

@@ -30,6 +30,7 @@ pub mod path;
 pub mod phase;
 pub mod progress;
 pub mod settings;
+pub mod sky;
 mod space;
 mod sweep;
 mod tile;

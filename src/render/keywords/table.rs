@@ -7,6 +7,7 @@ use crate::failure::{Failure, Outcome};
 use crate::render::Phase;
 use crate::render::motion::ShutterPosition;
 use crate::render::settings::{Aovs, Integrator, MAX_BOUNCES, MultiScatter, Shadows};
+use crate::render::sky::Sky;
 use crate::render::transmittance::TransmissivityMethod;
 use crate::render::view::View;
 
@@ -399,13 +400,17 @@ pub const KEYWORDS: &[Keyword] = &[
     },
     Keyword {
         name: "sky",
-        kind: KeywordType::Vector,
+        kind: KeywordType::Sky,
         default: "(0, 0, 0)",
         choices: None,
         aliases: &[],
-        doc: "path tracer: radiance of a uniform sky, shadowed by the medium",
+        doc: "path tracer: radiance of a uniform sky, or an `envmap` or `physicalsky`, shadowed \
+              by the medium",
         apply: Some(|o, v| {
-            o.settings.sky = v.vector();
+            o.settings.sky = match v {
+                Setting::Sky(sky) => sky.clone(),
+                other => Sky::Uniform(other.vector()),
+            };
             Ok(())
         }),
     },
