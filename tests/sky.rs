@@ -7,12 +7,15 @@
 //! same model, so the same colour in every direction up to one constant. That constant is the
 //! normalisation: Cycles scales the paper's zenith luminance (kcd/m²) by 0.06, felt takes
 //! radiance 1 as 30 000 cd/m², i.e. the kcd/m² figure over 30; so felt's RGB is Cycles' times
-//! (1/30)/0.06 = 5/9.
+//! (1/30)/0.06 = 5/9. And the same lat-long EXR, as felt's `envmap` with `rotate = 90` and as
+//! Cycles' Environment Texture (nearest texel), shows the same texel along every direction.
 
 mod common;
 
+use felt::render::sky::envmap::EnvMap;
 use felt::render::sky::physical::PhysicalSky;
 use glam::DVec3;
+use std::path::Path;
 use std::process::Command;
 
 #[test]
@@ -92,18 +95,69 @@ fn blender(d: DVec3) -> DVec3 {
     DVec3::new(d.x, -d.z, d.y)
 }
 
-#[test]
-fn physical_sky_matches_cycles_preetham() {
+/// Whether the peer tests are asked for and Blender is there; says why not when not.
+fn blender_ready() -> bool {
     if std::env::var("FELT_PEER_TESTS").as_deref() != Ok("1") {
         eprintln!("skipped: set FELT_PEER_TESTS=1 to compare with Blender's Cycles");
-        return;
+        return false;
     }
-    if !Command::new("blender")
+    let there = Command::new("blender")
         .arg("--version")
         .output()
-        .is_ok_and(|o| o.status.success())
-    {
+        .is_ok_and(|o| o.status.success());
+    if !there {
         eprintln!("skipped: Blender is not installed (apt-get install blender)");
+    }
+    there
+}
+
+/// Cycles' world colour along felt's `directions`, the world being `world` (JSON members:
+/// a Preetham sky's `turbidity` and `to_sun` in Blender's axes, or an `envmap` path).
+fn cycles_along(dir: &Path, world: &str, directions: &[DVec3]) -> Vec<DVec3> {
+    let out = dir.join("cycles.json");
+    let items: Vec<String> = directions
+        .iter()
+        .map(|d| {
+            let b = blender(*d);
+            format!("[{}, {}, {}]", b.x, b.y, b.z)
+        })
+        .collect();
+    let config = format!(
+        r#"{{{world}, "directions": [{}], "dir": "{}", "out": "{}"}}"#,
+        items.join(", "),
+        dir.display(),
+        out.display()
+    );
+    let json = dir.join("config.json");
+    std::fs::write(&json, config).unwrap();
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/blender_sky.py");
+    let run = Command::new("blender")
+        .args(["-b", "--factory-startup", "--python-exit-code", "1", "-P"])
+        .arg(&script)
+        .arg("--")
+        .arg(&json)
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "blender: {}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let text = std::fs::read_to_string(&out).unwrap();
+    let values: Vec<f64> = text
+        .split(|c: char| !(c.is_ascii_digit() || c == '.' || c == '-' || c == 'e'))
+        .filter(|s| !s.is_empty())
+        .map(|s| s.parse().unwrap())
+        .collect();
+    values
+        .chunks_exact(3)
+        .map(|v| DVec3::new(v[0], v[1], v[2]))
+        .collect()
+}
+
+#[test]
+fn physical_sky_matches_cycles_preetham() {
+    if !blender_ready() {
         return;
     }
     let dir = tempfile::tempdir().unwrap();
@@ -124,49 +178,13 @@ fn physical_sky_matches_cycles_preetham() {
         .iter()
         .map(|d| d.normalize())
         .collect();
-        let out = dir.path().join("cycles.json");
-        let list = |ds: &[DVec3]| {
-            let items: Vec<String> = ds
-                .iter()
-                .map(|d| format!("[{}, {}, {}]", d.x, d.y, d.z))
-                .collect();
-            format!("[{}]", items.join(", "))
-        };
         let b = blender(to_sun);
-        let config = format!(
-            r#"{{"turbidity": {turbidity}, "to_sun": [{}, {}, {}], "directions": {},
-                 "dir": "{}", "out": "{}"}}"#,
-            b.x,
-            b.y,
-            b.z,
-            list(&directions.iter().map(|d| blender(*d)).collect::<Vec<_>>()),
-            dir.path().display(),
-            out.display()
+        let world = format!(
+            r#""turbidity": {turbidity}, "to_sun": [{}, {}, {}]"#,
+            b.x, b.y, b.z
         );
-        let json = dir.path().join("config.json");
-        std::fs::write(&json, config).unwrap();
-        let script = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("tests/fixtures/blender_preetham.py");
-        let run = Command::new("blender")
-            .args(["-b", "--factory-startup", "--python-exit-code", "1", "-P"])
-            .arg(&script)
-            .arg("--")
-            .arg(&json)
-            .output()
-            .unwrap();
-        assert!(
-            run.status.success(),
-            "blender: {}",
-            String::from_utf8_lossy(&run.stderr)
-        );
-        let text = std::fs::read_to_string(&out).unwrap();
-        let values: Vec<f64> = text
-            .split(|c: char| !(c.is_ascii_digit() || c == '.' || c == '-' || c == 'e'))
-            .filter(|s| !s.is_empty())
-            .map(|s| s.parse().unwrap())
-            .collect();
-        for (i, d) in directions.iter().enumerate() {
-            let cycles = DVec3::new(values[3 * i], values[3 * i + 1], values[3 * i + 2]);
+        let cycles = cycles_along(dir.path(), &world, &directions);
+        for (d, cycles) in directions.iter().zip(cycles) {
             let ours = sky.radiance(*d);
             let ratio = ours / cycles;
             eprintln!(
@@ -179,5 +197,47 @@ fn physical_sky_matches_cycles_preetham() {
                 );
             }
         }
+    }
+}
+
+#[test]
+fn an_envmap_turned_a_quarter_is_what_cycles_shows_of_the_same_file() {
+    if !blender_ready() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("checks.exr");
+    // Every texel a different colour, so a lookup one texel off is seen.
+    let (width, height) = (32, 16);
+    let texel = |i: usize, j: usize| {
+        (
+            (0.1 + i as f64 / width as f64) as f32,
+            (0.1 + j as f64 / height as f64) as f32,
+            (0.2 + ((i * 7 + j * 3) % 5) as f64 / 5.0) as f32,
+        )
+    };
+    exr::prelude::write_rgb_file(&path, width, height, texel).unwrap();
+    let map = EnvMap::load(&path, "checks.exr", 1.0, 90.0).unwrap();
+    // Directions at texel centres of the turned map, all around and at several heights.
+    let directions: Vec<DVec3> = [(3, 2), (9, 5), (16, 8), (21, 11), (28, 13), (0, 7)]
+        .iter()
+        .map(|&(i, j)| {
+            let d = felt::render::sky::latlong::direction(
+                (i as f64 + 0.5) / width as f64,
+                (j as f64 + 0.5) / height as f64,
+            );
+            // The world direction the turned map shows texel (i, j) along.
+            glam::DQuat::from_rotation_y(90f64.to_radians()) * d
+        })
+        .collect();
+    let world = format!(r#""envmap": "{}""#, path.display());
+    let cycles = cycles_along(dir.path(), &world, &directions);
+    for (d, cycles) in directions.iter().zip(cycles) {
+        let ours = map.radiance(*d);
+        eprintln!("{d:.3}: felt {ours:.4}, cycles {cycles:.4}");
+        assert!(
+            (ours - cycles).abs().max_element() < 1e-3,
+            "{d}: felt {ours} vs Cycles {cycles}"
+        );
     }
 }

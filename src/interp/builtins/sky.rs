@@ -74,8 +74,13 @@ pub fn register(r: &mut Registry) {
 pub fn sky_setting(value: &Value) -> Outcome<Sky> {
     match value {
         Value::Sky(sky) => Ok(sky.clone()),
-        Value::Light(_) => Err(Failure::new("sky takes a vector or a sky, found a distant or point light")
-            .with_help("put distant and point lights in lights = {...}; sky takes (r, g, b), envmap(...) or physicalsky(...)")),
+        Value::Light(_) => Err(Failure::new(
+            "sky takes a vector or a sky, found a distant or point light",
+        )
+        .with_help(
+            "put distant and point lights in lights = {...}; sky takes (r, g, b), \
+             envmap(...) or physicalsky(...)",
+        )),
         other => Ok(Sky::Uniform(other.as_vector()?)),
     }
 }

@@ -2,11 +2,12 @@
 //! in felt's working space, scaled by `intensity` and turned by `rotate` degrees about +y.
 //!
 //! The layout is `latlong`'s (Mitsuba 3's): the top row is the zenith, `u = 0` looks along −z
-//! and `u = ¼` along +x. `rotate` turns the map right-handedly about +y: with `rotate = 90` what the file has along −z lights the scene from −x. The one
-//! key decision: radiance is the texel's value, constant over the texel's cell (nearest
-//! lookup), the same cells the sampler's density is constant over, so an estimate
-//! `radiance/pdf` over a map is unbiased with no interpolation to reconcile. Negative texels (a
-//! camera's noise floor) read as 0; NaN and infinite texels are refused with where the first is.
+//! and `u = ¼` along +x. `rotate` turns the map right-handedly about +y: with `rotate = 90`
+//! what the file has along −z lights the scene from −x. The one key decision: radiance is the
+//! texel's value, constant over the texel's cell (nearest lookup), the same cells the
+//! sampler's density is constant over, so an estimate `radiance/pdf` over a map is unbiased
+//! with no interpolation to reconcile. Negative texels (a camera's noise floor) read as 0;
+//! NaN and infinite texels are refused with where the first is.
 
 use super::latlong::{self, DrawnDirection, LatLongSampler};
 use crate::failure::{Failure, Outcome};

@@ -5,7 +5,8 @@
 //! both: `u = atan2(x, −z)/2π` (wrapped into [0, 1)) runs along a row and `v = acos(y)/π` down
 //! the rows, so the top row is the zenith (+y), the left edge (`u = 0`) looks along −z, a
 //! quarter of the way across (`u = ¼`) along +x, the middle (`u = ½`) along +z and
-//! three quarters (`u = ¾`) along −x. Texel `(i, j)` of a `W × H` image covers
+//! three quarters (`u = ¾`) along −x (Blender's Environment Texture reads the same file a
+//! quarter turn apart: `rotate = 90` matches it). Texel `(i, j)` of a `W × H` image covers
 //! `[i/W, (i+1)/W) × [j/H, (j+1)/H)` in `(u, v)`. The one key decision: directions are drawn
 //! from a piecewise-constant density in `(u, v)` whose cells are the texels, weighted by the
 //! texel's luminance times `sin θ` at its centre, and converted to solid angle with the exact
