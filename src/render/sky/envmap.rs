@@ -20,6 +20,12 @@ const MOST_TEXELS: usize = 16384 * 8192;
 /// Rec.709's luminance weights: how bright a texel counts when directions are drawn.
 const LUMINANCE: DVec3 = DVec3::new(0.2126, 0.7152, 0.0722);
 
+/// The bytes a map of `texels` holds: RGB as `f32`, and the sampler's cumulative sums
+/// (`f64`, one per texel and one per row).
+fn bytes_for(texels: usize) -> f64 {
+    texels as f64 * (3.0 * 4.0 + 8.0) + (texels as f64).sqrt() * 8.0
+}
+
 /// A lat-long environment map, ready to be looked up and sampled.
 pub struct EnvMap {
     width: usize,
@@ -29,6 +35,8 @@ pub struct EnvMap {
     /// Turns world directions into the map's.
     to_map: DQuat,
     sampler: Option<LatLongSampler>,
+    /// The run's memory budget held for the texels and the sampler's sums.
+    _reservation: Option<crate::budget::Reservation>,
     /// What the map was made from, for messages and printing.
     pub source: String,
     pub intensity: f64,
@@ -45,14 +53,18 @@ impl EnvMap {
     /// The map in the EXR file at `path`, called `name` in messages (RGB or RGBA; alpha is
     /// ignored).
     pub fn load(path: &Path, name: &str, intensity: f64, rotate: f64) -> Outcome<EnvMap> {
+        // The budget is asked before the texels are allocated; a refusal leaves them empty
+        // and is reported once the reader returns.
         let image = exr::prelude::read_first_rgba_layer_from_file(
             path,
             |size, _| {
                 let texels = size.width().saturating_mul(size.height());
-                let storage = if texels <= MOST_TEXELS { texels } else { 0 };
-                (size.width(), vec![[0f32; 3]; storage])
+                let refusal = crate::budget::check(bytes_for(texels), "an environment map").err();
+                let fits = texels <= MOST_TEXELS && refusal.is_none();
+                let storage = if fits { texels } else { 0 };
+                (size.width(), vec![[0f32; 3]; storage], refusal)
             },
-            |(width, texels), at, (r, g, b, _a): (f32, f32, f32, f32)| {
+            |(width, texels, _), at, (r, g, b, _a): (f32, f32, f32, f32)| {
                 if let Some(t) = texels.get_mut(at.y() * *width + at.x()) {
                     *t = [r, g, b];
                 }
@@ -63,7 +75,10 @@ impl EnvMap {
                 .with_help("give a lat-long OpenEXR image with R, G and B channels")
         })?;
         let size = image.layer_data.size;
-        let (width, texels) = image.layer_data.channel_data.pixels;
+        let (width, texels, refusal) = image.layer_data.channel_data.pixels;
+        if let Some(refusal) = refusal {
+            return Err(refusal);
+        }
         EnvMap::new(
             width,
             size.height(),
@@ -114,6 +129,7 @@ impl EnvMap {
             ))
             .with_help("repair or clamp the image before lighting with it"));
         }
+        let reservation = crate::budget::reserve(bytes_for(texels.len()), "an environment map")?;
         for t in &mut texels {
             for c in t.iter_mut() {
                 *c = (c.max(0.0) as f64 * intensity) as f32;
@@ -129,6 +145,7 @@ impl EnvMap {
             texels,
             to_map: DQuat::from_rotation_y(-rotate.to_radians()),
             sampler,
+            _reservation: Some(reservation),
             source,
             intensity,
             rotate,
