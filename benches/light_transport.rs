@@ -131,7 +131,7 @@ fn four_scenes() {
         let (fast, fast_seconds) = scenes::render(&scene, &density, &scenes::settings(&scene, size));
         let single = RenderSettings {
             indirect: None,
-            sky: DVec3::ZERO,
+            sky: DVec3::ZERO.into(),
             ..scenes::settings(&scene, size)
         };
         let (alone, _) = scenes::render(&scene, &density, &single);
@@ -187,7 +187,7 @@ fn mitsuba_speed() {
         albedo: Some(ALBEDO),
         phase: Phase::HenyeyGreenstein { g: G },
         integrator: Integrator::Path,
-        sky: SKY,
+        sky: SKY.into(),
         bounds: Some(Aabb::new(DVec3::splat(-0.6), DVec3::splat(0.6))),
         ..RenderSettings::default()
     };

@@ -90,6 +90,25 @@ const CASES: &[(&str, usize, usize, &str)] = &[
         14,
         "its name has a frame pattern but the script declares no",
     ),
+    (
+        "envmap_missing_file",
+        1,
+        13,
+        "no environment map 'nowhere.exr'",
+    ),
+    (
+        "physicalsky_turbidity",
+        2,
+        13,
+        "turbidity must be between 2 and 10, got 1",
+    ),
+    ("sun_below_horizon", 1, 13, "below the horizon"),
+    (
+        "sky_given_a_distant_light",
+        3,
+        1,
+        "sky takes a vector or a sky, found a distant or point light",
+    ),
 ];
 
 /// The cases `felt check` must find without running anything: each is reported by the

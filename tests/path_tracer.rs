@@ -4,7 +4,8 @@
 //! channels, and options of the other integrator are errors in the author's terms. The peer
 //! test (opt in with `FELT_PEER_TESTS=1`; `pip install mitsuba numpy`) renders the same density
 //! grid, camera and lights with Mitsuba's `volpath` and compares mean brightness and 4×4-block
-//! means within the two renders' noise, on a dense cloud and a thin plume.
+//! means within the two renders' noise, on a dense cloud and a thin plume; and the same plume
+//! lit only by a lat-long environment map, which both read in Mitsuba's layout.
 
 mod common;
 
@@ -12,10 +13,12 @@ use felt::field::{CompiledField, Field};
 use felt::grid::cache::Cache;
 use felt::grid::domain::Domain;
 use felt::render::settings::{Integrator, RenderSettings};
+use felt::render::sky::Sky;
+use felt::render::sky::envmap::EnvMap;
 use felt::render::{Camera, Light, Phase, Scene, render};
 use felt::sample::{Aabb, GridSource};
 use glam::DVec3;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::Arc;
 
@@ -160,6 +163,8 @@ struct PeerScene {
     albedo: f64,
     g: f64,
     sky: DVec3,
+    /// A lat-long EXR lighting the scene instead of `sky`.
+    envmap: Option<PathBuf>,
     sun: (DVec3, DVec3),
     size: usize,
     spp: u32,
@@ -192,7 +197,12 @@ fn felt_render(s: &PeerScene) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
         phase: Phase::HenyeyGreenstein { g: s.g },
         integrator: Integrator::Path,
         bounces: s.bounces,
-        sky: s.sky,
+        sky: match &s.envmap {
+            Some(path) => {
+                Sky::Environment(Arc::new(EnvMap::load(path, "peer.exr", 1.0, 0.0).unwrap()))
+            }
+            None => s.sky.into(),
+        },
         bounds: Some(Aabb::new(s.grid.lo, s.grid.hi)),
         ..RenderSettings::default()
     };
@@ -225,7 +235,7 @@ fn mitsuba_render(s: &PeerScene, dir: &Path) -> (Vec<[f64; 3]>, f64) {
     let config = format!(
         r#"{{"vol": "{}", "bbox_min": {}, "bbox_max": {}, "kappa": {}, "albedo": {},
              "g": {}, "eye": {}, "lookat": {}, "up": {}, "fov": {fov}, "width": {}, "height": {},
-             "spp": {}, "max_depth": {}, "sky": {},
+             "spp": {}, "max_depth": {}, "sky": {}, "envmap": {},
              "lights": [{{"type": "distant", "direction": {}, "color": {}}}], "out": "{}"}}"#,
         vol.display(),
         v(s.grid.lo),
@@ -242,6 +252,10 @@ fn mitsuba_render(s: &PeerScene, dir: &Path) -> (Vec<[f64; 3]>, f64) {
         // Mitsuba's depth counts the segment to the camera: bounces + 1.
         s.bounces + 1,
         v(s.sky),
+        match &s.envmap {
+            Some(path) => format!("\"{}\"", path.display()),
+            None => "null".to_string(),
+        },
         v(s.sun.0.normalize()),
         v(s.sun.1),
         out.display(),
@@ -293,16 +307,7 @@ const BOUNCES: u32 = 64;
 
 #[test]
 fn path_tracer_matches_mitsuba_on_a_cloud_and_a_plume() {
-    if std::env::var("FELT_PEER_TESTS").as_deref() != Ok("1") {
-        eprintln!("skipped: set FELT_PEER_TESTS=1 to compare with Mitsuba 3 (pip install mitsuba)");
-        return;
-    }
-    let mitsuba = Command::new("python3")
-        .args(["-c", "import mitsuba, numpy"])
-        .output()
-        .is_ok_and(|o| o.status.success());
-    if !mitsuba {
-        eprintln!("skipped: Mitsuba 3 is not installed (pip install mitsuba numpy)");
+    if !mitsuba_ready() {
         return;
     }
     let dir = tempfile::tempdir().unwrap();
@@ -339,6 +344,7 @@ fn path_tracer_matches_mitsuba_on_a_cloud_and_a_plume() {
             albedo,
             g: 0.5,
             sky: DVec3::new(0.1, 0.15, 0.25),
+            envmap: None,
             sun: (DVec3::new(-0.5, -1.0, -0.4), DVec3::splat(3.0)),
             size: 32,
             spp: 256,
@@ -383,4 +389,86 @@ fn path_tracer_matches_mitsuba_on_a_cloud_and_a_plume() {
         }
     }
     assert!(failures.is_empty(), "{failures:#?}");
+}
+
+/// Whether the peer tests are asked for and Mitsuba 3 is there; says why not when not.
+fn mitsuba_ready() -> bool {
+    if std::env::var("FELT_PEER_TESTS").as_deref() != Ok("1") {
+        eprintln!("skipped: set FELT_PEER_TESTS=1 to compare with Mitsuba 3 (pip install mitsuba)");
+        return false;
+    }
+    let mitsuba = Command::new("python3")
+        .args(["-c", "import mitsuba, numpy"])
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !mitsuba {
+        eprintln!("skipped: Mitsuba 3 is not installed (pip install mitsuba numpy)");
+    }
+    mitsuba
+}
+
+/// A smooth lat-long sky in Mitsuba's layout: blue above, a warm glow 30° up towards +x and
+/// a little towards +z, a dark ground; `width × width/2` texels.
+fn write_glow_map(path: &Path, width: usize) {
+    let height = width / 2;
+    let glow = DVec3::new(1.0, 0.6, 0.3).normalize();
+    exr::prelude::write_rgb_file(path, width, height, |i, j| {
+        let (u, v) = (
+            (i as f64 + 0.5) / width as f64,
+            (j as f64 + 0.5) / height as f64,
+        );
+        let (theta, phi) = (std::f64::consts::PI * v, 2.0 * std::f64::consts::PI * u);
+        let d = DVec3::new(
+            theta.sin() * phi.sin(),
+            theta.cos(),
+            -theta.sin() * phi.cos(),
+        );
+        let lobe = 6.0 * (12.0 * (d.dot(glow) - 1.0)).exp();
+        let above = d.y.max(0.0);
+        let r = 0.05 + 0.1 * above + lobe;
+        let g = 0.05 + 0.2 * above + 0.7 * lobe;
+        let b = 0.05 + 0.4 * above + 0.4 * lobe;
+        (r as f32, g as f32, b as f32)
+    })
+    .unwrap();
+}
+
+#[test]
+fn environment_lighting_matches_mitsuba() {
+    if !mitsuba_ready() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let map = dir.path().join("glow.exr");
+    write_glow_map(&map, 256);
+    let (lo, hi) = (DVec3::splat(-0.6), DVec3::splat(0.6));
+    let scene = PeerScene {
+        grid: Grid::new([48; 3], lo, hi, plume),
+        kappa: 6.0,
+        albedo: 0.9,
+        g: 0.5,
+        sky: DVec3::ZERO,
+        envmap: Some(map),
+        sun: (DVec3::new(0.0, -1.0, 0.0), DVec3::ZERO),
+        size: 32,
+        spp: 256,
+        bounces: BOUNCES,
+    };
+    let (ours, _) = felt_render(&scene);
+    let (theirs, _) = mitsuba_render(&scene, dir.path());
+    let n = ours.len() as f64;
+    for c in 0..3 {
+        let (a, b) = (
+            ours.iter().map(|p| p[c]).sum::<f64>() / n,
+            theirs.iter().map(|p| p[c]).sum::<f64>() / n,
+        );
+        eprintln!(
+            "channel {c}: felt mean {a:.5}, mitsuba mean {b:.5}, ratio {:.4}",
+            a / b
+        );
+        assert!(
+            (a / b - 1.0).abs() < 0.03,
+            "channel {c}: felt {a} vs mitsuba {b}"
+        );
+    }
 }

@@ -122,7 +122,7 @@ pub fn settings(scene: &LightScene, size: usize) -> RenderSettings {
         kappa: DVec3::splat(scene.kappa),
         albedo: Some(scene.albedo),
         phase: Phase::HenyeyGreenstein { g: scene.g },
-        sky: scene.sky,
+        sky: scene.sky.into(),
         bounds: Some(Aabb::new(DVec3::splat(-0.6), DVec3::splat(0.6))),
         ..RenderSettings::default()
     }

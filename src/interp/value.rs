@@ -12,6 +12,7 @@ use crate::geometry::Mesh;
 use crate::grid::cache::Cache;
 use crate::grid::domain::Domain;
 use crate::particles::Particles;
+use crate::render::sky::Sky;
 use crate::render::{Camera, Light};
 use glam::{DMat3, DVec3};
 use std::cell::RefCell;
@@ -34,6 +35,8 @@ pub enum Value {
     Shape(Rc<Mesh>),
     Camera(Rc<Camera>),
     Light(Rc<Light>),
+    /// A sky (`envmap`, `physicalsky`): a `light` to the checker, given as `render`'s `sky`.
+    Sky(crate::render::sky::Sky),
     /// Points with attributes; shared, never changed once made.
     Particles(Arc<Particles>),
     /// One state of a cloud automaton (`cloudca`, `cloudstep`).
@@ -72,7 +75,7 @@ impl Value {
             },
             Value::Shape(_) => Type::Shape,
             Value::Camera(_) => Type::Camera,
-            Value::Light(_) => Type::Light,
+            Value::Light(_) | Value::Sky(_) => Type::Light,
             Value::Particles(_) => Type::Particles,
             Value::CloudSim(_) => Type::CloudSim,
             Value::Array(_, elem) => Type::array_of(elem.clone()),
@@ -341,6 +344,23 @@ impl fmt::Display for Value {
                     None => f.write_str(")"),
                 }
             }
+            Value::Sky(sky) => match sky {
+                Sky::Uniform(radiance) => write!(f, "sky({})", format_vector(*radiance)),
+                Sky::Environment(map) => write!(
+                    f,
+                    "envmap(\"{}\", intensity {}, rotate {})",
+                    map.source,
+                    format_float(map.intensity),
+                    format_float(map.rotate)
+                ),
+                Sky::Physical(sky) => write!(
+                    f,
+                    "physicalsky(sun {}, turbidity {}, intensity {})",
+                    format_vector(sky.sun_travel()),
+                    format_float(sky.turbidity),
+                    format_float(sky.intensity)
+                ),
+            },
             Value::Particles(p) => {
                 let names: Vec<&str> = std::iter::once(crate::particles::POSITION)
                     .chain(p.attributes.iter().map(|a| a.name.as_str()))

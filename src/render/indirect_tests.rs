@@ -60,7 +60,7 @@ fn white_furnace_shows_the_sky_through_the_grid() {
     for (density, g) in [(1.0, 0.0), (20.0, 0.8)] {
         let medium = ball(density);
         let mut s = settings(16);
-        s.sky = sky;
+        s.sky = sky.into();
         s.phase = Phase::HenyeyGreenstein { g };
         s.bounces = crate::render::settings::MAX_BOUNCES;
         let image = render(&scene(&medium, Vec::new()), &s).unwrap();
@@ -87,7 +87,7 @@ fn white_furnace_shows_the_sky_through_the_grid() {
 fn without_the_grid_the_sky_is_refused_and_single_scattering_misses_the_sky() {
     let medium = ball(4.0);
     let mut s = settings(8);
-    s.sky = DVec3::ONE;
+    s.sky = DVec3::ONE.into();
     s.indirect = None;
     let err = render(&scene(&medium, Vec::new()), &s).unwrap_err();
     assert!(err.message.contains("indirect grid"), "{}", err.message);
@@ -104,7 +104,7 @@ fn the_march_with_its_grid_matches_the_path_tracer_on_a_thin_lit_medium() {
     let mut march = settings(16);
     march.albedo = Some(0.8);
     march.phase = Phase::HenyeyGreenstein { g: 0.3 };
-    march.sky = DVec3::new(0.1, 0.2, 0.3);
+    march.sky = DVec3::new(0.1, 0.2, 0.3).into();
     let mut path = march.clone();
     path.integrator = Integrator::Path;
     path.spp = 512;
@@ -112,7 +112,7 @@ fn the_march_with_its_grid_matches_the_path_tracer_on_a_thin_lit_medium() {
     let reference = render(&lit, &path).unwrap();
     let fast = render(&lit, &march).unwrap();
     march.indirect = None;
-    march.sky = DVec3::ZERO;
+    march.sky = DVec3::ZERO.into();
     let single = render(&lit, &march).unwrap();
     for c in 0..3 {
         let (want, got, alone) = (

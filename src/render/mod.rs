@@ -31,6 +31,7 @@ pub mod path;
 pub mod phase;
 pub mod progress;
 pub mod settings;
+pub mod sky;
 mod space;
 mod sweep;
 mod tile;
@@ -330,7 +331,7 @@ pub fn render_with_stats(
         Ok(grid) => (grid, None),
         // A density whose range is unknown cannot be path-traced; with no sky asked for, the
         // march still renders its exact single scattering, and says what it left out.
-        Err(failure) if !failure.internal && settings.sky == DVec3::ZERO => {
+        Err(failure) if !failure.internal && settings.sky.is_black() => {
             (None, Some(failure.message))
         }
         Err(failure) => return Err(failure),
@@ -445,7 +446,7 @@ fn indirect_grid(
     let Some(grid) = settings.indirect_grid() else {
         return Ok(None);
     };
-    if scene.lights.is_empty() && settings.sky == DVec3::ZERO && scene.emission.is_none() {
+    if scene.lights.is_empty() && settings.sky.is_black() && scene.emission.is_none() {
         return Ok(None);
     }
     let majorants = path::majorant::Majorants::build(

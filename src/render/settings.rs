@@ -7,6 +7,7 @@
 //! worded in the script author's terms.
 
 use super::phase::Phase;
+use super::sky::Sky;
 use super::transmittance::TransmissivityMethod;
 use crate::failure::{Failure, Outcome};
 use crate::sample::Aabb;
@@ -161,9 +162,10 @@ pub struct RenderSettings {
     /// Path tracer: the most scattering events along a path (0 shows emission alone, 1 is
     /// single scattering).
     pub bounces: u32,
-    /// Path tracer: radiance of a uniform sky around the render box, seen by every path that
-    /// leaves the box after scattering (so it is shadowed by the medium).
-    pub sky: DVec3,
+    /// Path tracer: the sky around the render box (a uniform radiance, an environment map or
+    /// the daylight sky), seen by every path that leaves the box after scattering (so it is
+    /// shadowed by the medium).
+    pub sky: Sky,
     /// March in the albedo model: the grid of indirect light (orders ≥ 2, the sky, scattered
     /// emission), or `None` for single scattering alone (`multiscatter = 0`, or the octaves).
     pub indirect: Option<super::indirect::IndirectSettings>,
@@ -209,7 +211,7 @@ impl Default for RenderSettings {
             aovs: Aovs::default(),
             integrator: Integrator::March,
             bounces: 64,
-            sky: DVec3::ZERO,
+            sky: Sky::default(),
             indirect: Some(super::indirect::IndirectSettings::default()),
             shutter: 0.5,
             shutter_position: super::motion::ShutterPosition::Center,
@@ -350,16 +352,17 @@ impl RenderSettings {
                 self.bounces
             )));
         }
-        if !self.sky.is_finite() || self.sky.min_element() < 0.0 {
+        if let Sky::Uniform(radiance) = self.sky
+            && (!radiance.is_finite() || radiance.min_element() < 0.0)
+        {
             return Err(Failure::new(format!(
-                "sky must be finite and non-negative, got {}",
-                self.sky
+                "sky must be finite and non-negative, got {radiance}"
             ))
             .with_help("sky is the radiance of a uniform sky, per colour channel"));
         }
         match self.integrator {
             Integrator::March => {
-                if self.sky != DVec3::ZERO && self.indirect_grid().is_none() {
+                if !self.sky.is_black() && self.indirect_grid().is_none() {
                     return Err(Failure::new(
                         "the march shows sky light through its indirect grid, which this render \
                          does not have",

@@ -15,6 +15,7 @@ mod nacelle;
 mod particles;
 mod rendering;
 mod simulation;
+pub mod sky;
 mod usd;
 
 use super::registry::Registry;
@@ -26,6 +27,7 @@ pub fn register_all(r: &mut Registry) {
     grids::register(r);
     modeling::register(r);
     rendering::register(r);
+    sky::register(r);
     geometry::register(r);
     nacelle::register(r);
     attributes::register(r);

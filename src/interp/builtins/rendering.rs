@@ -89,7 +89,11 @@ pub fn register(r: &mut Registry) {
         "the fraction of l's light reaching each point through density (1 outside d), sampled at d's cells",
         |_, a| {
             let density = CompiledField::prepared(&a.get("density")?.as_field()?)?;
-            let Value::Light(light) = a.get("l")? else { return Err(Failure::new("expected a light")) };
+            let light = match a.get("l")? {
+                Value::Light(light) => light,
+                Value::Sky(_) => return Err(Failure::new("transmissivity takes a distant or point light, not a sky")),
+                _ => return Err(Failure::new("expected a light")),
+            };
             let Value::Domain(domain) = a.get("d")? else { return Err(Failure::new("expected a domain")) };
             if domain.resolution.is_none() {
                 return Err(Failure::new("transmissivity needs a domain with a cell size"));
@@ -142,6 +146,7 @@ fn setting(a: &Args, keyword: &Keyword) -> Outcome<Option<Setting>> {
             Value::Vector(v) => Setting::Vector(*v),
             other => Setting::Float(other.as_float()?),
         },
+        KeywordType::Sky => Setting::Sky(super::sky::sky_setting(value)?),
         KeywordType::Bool => Setting::Bool(matches!(value, Value::Bool(true))),
         KeywordType::Str => Setting::Str(value.as_str()?.to_string()),
         KeywordType::Strings => match value {
@@ -181,6 +186,7 @@ fn run_render(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
             .iter()
             .map(|v| match v {
                 Value::Light(l) => Ok((**l).clone()),
+                Value::Sky(_) => Err(super::sky::sky_in_lights()),
                 other => Err(Failure::new(format!(
                     "lights must be lights, found {}",
                     other.type_of()

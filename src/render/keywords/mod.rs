@@ -15,6 +15,7 @@
 
 use super::RenderSettings;
 use super::settings::{Adaptive, Integrator};
+use super::sky::Sky;
 use super::tonemap::ToneMap;
 use super::view::View;
 use crate::failure::{Failure, Outcome};
@@ -33,6 +34,8 @@ pub enum KeywordType {
     Vector,
     /// A float, or a vector with one value per colour channel.
     FloatOrVector,
+    /// A uniform radiance as a vector, or an environment light (`envmap`, `physicalsky`).
+    Sky,
     Bool,
     Str,
     Strings,
@@ -52,6 +55,7 @@ impl KeywordType {
             KeywordType::Float | KeywordType::PositiveFloat => &["float"],
             KeywordType::Vector => &["vector"],
             KeywordType::FloatOrVector => &["float", "vector"],
+            KeywordType::Sky => &["vector", "light"],
             KeywordType::Bool => &["bool"],
             KeywordType::Str => &["string"],
             KeywordType::Strings => &["string[]"],
@@ -70,6 +74,7 @@ impl KeywordType {
             KeywordType::PositiveFloat => "float > 0",
             KeywordType::Vector => "vector",
             KeywordType::FloatOrVector => "float or vector",
+            KeywordType::Sky => "vector or light",
             KeywordType::Bool => "bool",
             KeywordType::Str => "string",
             KeywordType::Strings => "string[]",
@@ -90,6 +95,7 @@ pub enum Setting {
     Str(String),
     Strings(Vec<String>),
     Box(Aabb),
+    Sky(Sky),
 }
 
 impl Setting {
@@ -254,21 +260,24 @@ impl RenderOptions {
     }
 }
 
-/// `render(...)`'s signatures: the scene's inputs, then every row of the table (a
-/// float-or-vector row makes one form per type).
+/// `render(...)`'s signatures: the scene's inputs, then every row of the table (a row of two
+/// types makes a form for each, in every combination with the other such rows).
 pub fn signatures() -> Vec<String> {
-    let variants = KEYWORDS
+    let variants: usize = KEYWORDS
         .iter()
         .map(|k| k.kind.signature_types().len())
-        .max()
-        .unwrap_or(1);
+        .product();
     (0..variants)
         .map(|form| {
+            // The form's number, read digit by digit in the bases of the rows' type counts.
+            let mut digits = form;
             let rows: Vec<String> = KEYWORDS
                 .iter()
                 .map(|k| {
                     let types = k.kind.signature_types();
-                    format!("{} {}?", types[form.min(types.len() - 1)], k.name)
+                    let choice = digits % types.len();
+                    digits /= types.len();
+                    format!("{} {}?", types[choice], k.name)
                 })
                 .collect();
             format!(

@@ -7,6 +7,7 @@ use crate::failure::{Failure, Outcome};
 use crate::render::Phase;
 use crate::render::motion::ShutterPosition;
 use crate::render::settings::{Aovs, Integrator, MAX_BOUNCES, MultiScatter, Shadows};
+use crate::render::sky::Sky;
 use crate::render::transmittance::TransmissivityMethod;
 use crate::render::view::View;
 
@@ -488,13 +489,17 @@ pub const KEYWORDS: &[Keyword] = &[
     },
     Keyword {
         name: "sky",
-        kind: KeywordType::Vector,
+        kind: KeywordType::Sky,
         default: "(0, 0, 0)",
         choices: None,
         aliases: &[],
-        doc: "radiance of a uniform sky, shadowed by the medium (march: needs albedo)",
+        doc: "radiance of a uniform sky, or an `envmap` or `physicalsky`, shadowed by the \
+              medium (march: needs albedo)",
         apply: Some(|o, v| {
-            o.settings.sky = v.vector();
+            o.settings.sky = match v {
+                Setting::Sky(sky) => sky.clone(),
+                other => Sky::Uniform(other.vector()),
+            };
             Ok(())
         }),
     },

@@ -14,7 +14,8 @@
 //! transmittance (DESIGN.md, "Light transport"). Free flights are drawn by spectral delta
 //! tracking (`tracking`) over the majorant grid (`majorant`), the lights are reached by
 //! next-event estimation with ratio-tracked shadow rays, the phase is sampled exactly
-//! (`sampling`), and the sky is seen by paths leaving the box (`emitters`). Russian roulette
+//! (`sampling`), and the sky is seen by paths leaving the box and, where it varies with
+//! direction, sampled by next-event estimation too (`emitters`). Russian roulette
 //! ends weak paths after `ROULETTE_AFTER` scatterings, unbiased. The one key decision: like the
 //! march's image, a pixel's colour is premultiplied and the sky is not drawn behind the medium:
 //! alpha is one minus the camera ray's transmittance, so composited over the sky
@@ -34,6 +35,7 @@ use super::image::Image;
 use super::motion::Motion;
 use super::progress::Progress;
 use super::settings::RenderSettings;
+use super::sky::Sky;
 use super::space::clip_to_box;
 use super::{RenderStats, Scene};
 use crate::failure::{Failure, Outcome};
@@ -233,8 +235,14 @@ impl<'a> Frame<'a> {
         motion: Option<&'a Motion<'a>>,
     ) -> Frame<'a> {
         let mut emitters: Vec<Emitter> = scene.lights.iter().map(Emitter::Delta).collect();
-        if settings.sky != DVec3::ZERO {
-            emitters.push(Emitter::Sky(settings.sky));
+        match &settings.sky {
+            Sky::Uniform(radiance) if *radiance != DVec3::ZERO => {
+                emitters.push(Emitter::Sky(*radiance))
+            }
+            sky if sky.is_sampled() && !sky.is_black() => {
+                emitters.push(Emitter::Environment(sky))
+            }
+            _ => {}
         }
         Frame {
             scene,
@@ -321,6 +329,8 @@ impl<'a> Frame<'a> {
         let mut weight = DVec3::ONE;
         let mut radiance = DVec3::ZERO;
         let mut order = 0u32;
+        // The density per steradian with which phase sampling drew the ray's direction.
+        let mut phase_pdf = 0.0;
         loop {
             random.start_bounce(order);
             let flight = match clip_to_box(&ray, &self.bounds) {
@@ -333,8 +343,11 @@ impl<'a> Frame<'a> {
                     return (radiance, weight);
                 }
                 Flight::Escaped => {
+                    // An unscattered ray from inside the medium (the march's indirect grid)
+                    // left a point no next-event estimate was made from.
+                    let drawn = (order > 0).then_some(phase_pdf);
                     for emitter in &self.emitters {
-                        radiance += weight * emitter.escaping(ray.direction);
+                        radiance += weight * emitter.escaping(ray.direction, drawn);
                     }
                     return (radiance, DVec3::ZERO);
                 }
@@ -346,9 +359,11 @@ impl<'a> Frame<'a> {
             }
             let p = ray.at(t);
             radiance += weight * self.next_event(medium, p, ray.direction, random);
+            let scattered = sampling::scatter(&s.phase, ray.direction, random);
+            phase_pdf = s.phase.relative(scattered.dot(ray.direction)) / (4.0 * PI);
             ray = Ray {
                 origin: p,
-                direction: sampling::scatter(&s.phase, ray.direction, random),
+                direction: scattered,
             };
             if order >= ROULETTE_AFTER {
                 let survival = weight.max_element().min(1.0);
@@ -371,7 +386,7 @@ impl<'a> Frame<'a> {
     ) -> DVec3 {
         let mut total = DVec3::ZERO;
         for emitter in &self.emitters {
-            let Some(incident) = emitter.incident(p) else {
+            let Some(incident) = emitter.incident(p, random) else {
                 continue;
             };
             // The phase's angle is between the light's travel and the way back to the camera.
@@ -380,7 +395,8 @@ impl<'a> Frame<'a> {
                 .phase
                 .relative(incident.travelling.dot(-direction))
                 / (4.0 * PI);
-            let unshadowed = incident.strength * phase;
+            let unshadowed =
+                incident.strength * phase * emitters::light_weight(incident.pdf, phase);
             if unshadowed.max_element() <= 0.0 {
                 continue;
             }

@@ -170,7 +170,7 @@ fn white_furnace_shows_the_sky_whatever_the_density() {
             value: density,
         }]);
         let mut settings = path_settings(8, 16);
-        settings.sky = DVec3::splat(sky);
+        settings.sky = DVec3::splat(sky).into();
         settings.albedo = Some(albedo);
         settings.phase = Phase::HenyeyGreenstein { g: 0.4 };
         settings.bounces = crate::render::settings::MAX_BOUNCES;
@@ -393,7 +393,7 @@ fn the_image_is_the_same_for_any_thread_count() {
         lights: vec![Light::distant(DVec3::new(0.0, -1.0, -1.0), DVec3::ONE).unwrap()],
     };
     let mut settings = path_settings(9, 4);
-    settings.sky = DVec3::new(0.1, 0.2, 0.3);
+    settings.sky = DVec3::new(0.1, 0.2, 0.3).into();
     settings.kappa = DVec3::new(2.0, 3.0, 4.0);
     let images: Vec<Image> = [1, 3]
         .map(|threads| {
