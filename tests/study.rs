@@ -555,3 +555,35 @@ fn published_studies_run_at_tiny_size() {
     assert!((deformation.at(&["semilagrangian", "10"], "volume error") + sphere).abs() < 1e-4);
     assert!(deformation.at(&["bfecc", "10"], "volume error").abs() < 0.9 * sphere);
 }
+
+#[test]
+fn the_light_study_runs_at_tiny_size() {
+    // The fast render with its indirect grid against a path trace at 2 paths per pixel, both
+    // compared with a 64-path trace: at this budget the march is the closer of the two.
+    let light = tiny_study(&[
+        "light_transport.felt",
+        "--sweep",
+        "integrator=march,path",
+        "--set",
+        "scene=thin",
+        "--set",
+        "spp=2",
+        "--set",
+        "res=24",
+        "--set",
+        "width=48",
+        "--set",
+        "height=27",
+        "--reference",
+        "integrator=path",
+        "--reference",
+        "spp=64",
+        "--repeat",
+        "1",
+    ]);
+    let (march, path) = (
+        light.at(&["march"], "image.exr rmse"),
+        light.at(&["path"], "image.exr rmse"),
+    );
+    assert!(march > 0.0 && march < path, "march {march}, path {path}");
+}
