@@ -128,7 +128,8 @@ fn four_scenes() {
         let density = scenes::density(&scene);
         let (reference, path_seconds) =
             scenes::render(&scene, &density, &scenes::path(&scene, size, spp));
-        let (fast, fast_seconds) = scenes::render(&scene, &density, &scenes::settings(&scene, size));
+        let (fast, fast_seconds) =
+            scenes::render(&scene, &density, &scenes::settings(&scene, size));
         let single = RenderSettings {
             indirect: None,
             sky: DVec3::ZERO.into(),

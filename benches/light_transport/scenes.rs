@@ -107,8 +107,14 @@ pub fn density(scene: &LightScene) -> CompiledField {
             }
         }
     }
-    let domain = Domain::with_cells(DVec3::splat(-0.6), DVec3::splat(1.2), DVec3::ZERO, cell, cell)
-        .expect("domain");
+    let domain = Domain::with_cells(
+        DVec3::splat(-0.6),
+        DVec3::splat(1.2),
+        DVec3::ZERO,
+        cell,
+        cell,
+    )
+    .expect("domain");
     let cache = Cache::from_dense(domain, 1, vec![values], vec![0.0]).expect("cache");
     let grid: Arc<dyn GridSource> = Arc::new(cache);
     CompiledField::new(&Field::from_linear_grid(grid).expect("field"))

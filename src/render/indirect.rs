@@ -25,13 +25,13 @@
 //! at the frame's time.
 
 use super::camera::Camera;
+use super::camera::Ray;
+use super::light::Light;
 use super::path::Arrivals;
 use super::path::majorant::Majorants;
 use super::path::sampling::{PathRandom, scatter};
 use super::path::tracking::Medium;
 use super::phase::Phase;
-use super::camera::Ray;
-use super::light::Light;
 use super::space::clip_to_box;
 use crate::failure::{Failure, Outcome};
 use crate::sample::{Aabb, BlockEval, FieldSampler};
@@ -125,7 +125,8 @@ impl IndirectGrid {
                         return None;
                     }
                     let centre = centre(unflatten(index, counts));
-                    let most = path_count(inputs, density.as_mut(), centre, cell, &bounds, settings);
+                    let most =
+                        path_count(inputs, density.as_mut(), centre, cell, &bounds, settings);
                     let cell_paths = CellPaths {
                         inputs,
                         index,
@@ -243,8 +244,11 @@ impl CellPaths<'_> {
         } = *self.inputs;
         // The jitter and the direction come from the stream a camera ray's pixel jitter uses,
         // independent of every bounce's numbers.
-        let mut random =
-            PathRandom::new(self.inputs.seed ^ GRID_STREAM, self.index as u64, u64::from(k));
+        let mut random = PathRandom::new(
+            self.inputs.seed ^ GRID_STREAM,
+            self.index as u64,
+            u64::from(k),
+        );
         let jitter = DVec3::new(
             random.uniform() - 0.5,
             random.uniform() - 0.5,
@@ -311,7 +315,9 @@ fn path_count(
     let towards_camera = if camera.is_orthographic() {
         -camera.forward()
     } else {
-        (camera.eye - centre).try_normalize().unwrap_or(-camera.forward())
+        (camera.eye - centre)
+            .try_normalize()
+            .unwrap_or(-camera.forward())
     };
     // The corner of the cell's neighbourhood (one cell around it) nearest the camera.
     let near = centre + towards_camera.signum() * cell;

@@ -46,7 +46,11 @@ fn scene<'a>(density: &'a Pieces, lights: Vec<Light>) -> Scene<'a> {
 /// The mean of one channel over the pixels the medium covers.
 fn covered_mean(image: &Image, channel: usize) -> f64 {
     let covered: Vec<_> = image.rgba.iter().filter(|p| p[3] > 0.5).collect();
-    assert!(covered.len() > 10, "the ball covers {} pixels", covered.len());
+    assert!(
+        covered.len() > 10,
+        "the ball covers {} pixels",
+        covered.len()
+    );
     covered.iter().map(|p| f64::from(p[channel])).sum::<f64>() / covered.len() as f64
 }
 
@@ -150,5 +154,10 @@ fn the_grid_is_the_same_for_any_thread_count_and_absent_when_nothing_lights_it()
     assert_eq!(images[0].rgba, images[1].rgba);
     let dark = scene(&medium, Vec::new());
     let (image, _) = render_with_stats(&dark, &s).unwrap();
-    assert!(image.rgba.iter().all(|p| p[0] == 0.0 && p[3] > 0.0 || p[3] == 0.0));
+    assert!(
+        image
+            .rgba
+            .iter()
+            .all(|p| p[0] == 0.0 && p[3] > 0.0 || p[3] == 0.0)
+    );
 }

@@ -466,8 +466,7 @@ fn indirect_grid(
         lights: &scene.lights,
         seed: settings.seed,
     };
-    indirect::IndirectGrid::estimate(&inputs, bounds, grid)
-    .map(Some)
+    indirect::IndirectGrid::estimate(&inputs, bounds, grid).map(Some)
 }
 
 fn check_width(what: &str, field: &dyn FieldSampler, width: usize) -> Outcome<()> {

@@ -38,10 +38,10 @@ fn octave_shape(
     field: fn(&mut MultiScatter) -> &mut f64,
 ) -> Outcome<()> {
     let Some(ms) = o.settings.multiscatter.as_mut() else {
-        return Err(
-            Failure::new(format!("{name} shapes the multiscatter octaves, which are not on"))
-                .with_help("add multiscatter = 3 (or more octaves)"),
-        );
+        return Err(Failure::new(format!(
+            "{name} shapes the multiscatter octaves, which are not on"
+        ))
+        .with_help("add multiscatter = 3 (or more octaves)"));
     };
     *field(ms) = v.float();
     Ok(())

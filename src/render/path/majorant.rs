@@ -204,7 +204,8 @@ impl Majorants {
             hi[a] = (to.floor().max(0.0) as usize).min(self.counts[a] - 1);
         }
         (lo[2]..=hi[2]).any(|k| {
-            (lo[1]..=hi[1]).any(|j| (lo[0]..=hi[0]).any(|i| self.density[self.index([i, j, k])] > 0.0))
+            (lo[1]..=hi[1])
+                .any(|j| (lo[0]..=hi[0]).any(|i| self.density[self.index([i, j, k])] > 0.0))
         })
     }
 

@@ -239,9 +239,7 @@ impl<'a> Frame<'a> {
             Sky::Uniform(radiance) if *radiance != DVec3::ZERO => {
                 emitters.push(Emitter::Sky(*radiance))
             }
-            sky if sky.is_sampled() && !sky.is_black() => {
-                emitters.push(Emitter::Environment(sky))
-            }
+            sky if sky.is_sampled() && !sky.is_black() => emitters.push(Emitter::Environment(sky)),
             _ => {}
         }
         Frame {
