@@ -95,6 +95,82 @@ fn options_of_the_other_integrator_are_errors() {
     }
 }
 
+#[test]
+fn the_marchs_indirect_grid_keywords_follow_their_rules() {
+    let refused = [
+        ("sky = (1, 1, 1)", "sky belongs to the indirect grid"),
+        (
+            "albedo = 1, multiscatter = 0, sky = (1, 1, 1)",
+            "sky belongs",
+        ),
+        (
+            "albedo = 1, multiscatter = 3, bounces = 4",
+            "bounces belongs",
+        ),
+        (
+            "indirectcells = 8",
+            "indirectcells belongs to the indirect grid",
+        ),
+        (
+            r#"integrator = "path", indirectpaths = 8"#,
+            "not integrator = \"path\"",
+        ),
+        (
+            "albedo = 1, indirectcells = 300",
+            "indirectcells must be between 1 and 256",
+        ),
+        (
+            "albedo = 1, multiscatter = 17",
+            "0 (single scattering) or 1 to 16",
+        ),
+        ("albedo = 1, msattenuation = 0.3", "add multiscatter = 3"),
+    ];
+    for (options, expected) in refused {
+        let run = script(&format!(
+            r#"render("x.exr", density = rho, camera = cam, width = 4, height = 4, {options});"#
+        ));
+        assert!(!run.ok, "{options} was accepted");
+        assert!(
+            run.rendered.contains(expected),
+            "{options}: expected '{expected}' in\n{}",
+            run.rendered
+        );
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.exr");
+    let accepted = [
+        "albedo = 0.9, sky = (0.2, 0.3, 0.4), bounces = 8, indirectcells = 8, indirectpaths = 4",
+        "albedo = 0.9, multiscatter = 0",
+        "albedo = 0.9, multiscatter = 3, msattenuation = 0.4, mscontribution = 0.3",
+    ];
+    for options in accepted {
+        let run = script(&format!(
+            r#"render("{}", density = rho, camera = cam, width = 4, height = 4,
+                      lights = {{distantlight((0, -1, 0))}}, {options});"#,
+            out.display()
+        ));
+        assert!(run.ok, "{options}: {}", run.rendered);
+        assert!(
+            !run.rendered.contains("warning"),
+            "{options}: {}",
+            run.rendered
+        );
+    }
+    // Octaves that add more than they attenuate gain energy, and say so.
+    let run = script(&format!(
+        r#"render("{}", density = rho, camera = cam, width = 4, height = 4, albedo = 0.9,
+                  lights = {{distantlight((0, -1, 0))}}, multiscatter = 3, mscontribution = 0.8);"#,
+        out.display()
+    ));
+    assert!(run.ok, "{}", run.rendered);
+    assert!(
+        run.rendered
+            .contains("add more light than the medium scatters"),
+        "{}",
+        run.rendered
+    );
+}
+
 /// A density grid for both renderers: cells of a box, values at cell centres, zero in the
 /// outer two cells so that neither renderer's border rule matters.
 struct Grid {

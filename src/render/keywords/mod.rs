@@ -224,27 +224,25 @@ impl RenderOptions {
         // The march's sky, bounces and grid size all belong to its indirect grid: a control
         // that would silently do nothing is refused.
         let grid_controls = ["sky", "bounces", "indirectcells", "indirectpaths"];
-        if self.settings.integrator == Integrator::March && self.settings.indirect_grid().is_none()
-        {
-            if let Some(name) = grid_controls.iter().find(|n| self.given(n)) {
-                return Err(Failure::new(format!(
-                    "{name} belongs to the indirect grid, which this march does not have"
-                ))
-                .with_help(
-                    "the grid needs albedo = ... and no multiscatter; or add integrator = \"path\"",
-                ));
-            }
+        let march_without_grid = self.settings.integrator == Integrator::March
+            && self.settings.indirect_grid().is_none();
+        if march_without_grid && let Some(name) = grid_controls.iter().find(|n| self.given(n)) {
+            return Err(Failure::new(format!(
+                "{name} belongs to the indirect grid, which this march does not have"
+            ))
+            .with_help(
+                "the grid needs albedo = ... and no multiscatter; or add integrator = \"path\"",
+            ));
         }
-        if self.settings.integrator == Integrator::Path {
-            if let Some(name) = ["indirectcells", "indirectpaths"]
+        if self.settings.integrator == Integrator::Path
+            && let Some(name) = ["indirectcells", "indirectpaths"]
                 .iter()
                 .find(|n| self.given(n))
-            {
-                return Err(Failure::new(format!(
-                    "{name} belongs to the march's indirect grid, not integrator = \"path\""
-                ))
-                .with_help("the path tracer traces every path from the camera: leave it out"));
-            }
+        {
+            return Err(Failure::new(format!(
+                "{name} belongs to the march's indirect grid, not integrator = \"path\""
+            ))
+            .with_help("the path tracer traces every path from the camera: leave it out"));
         }
         self.tonemap = match &self.tonemap_name {
             Some(name) => Some(ToneMap::parse(name, self.brightness, self.gamma)?),
