@@ -30,7 +30,7 @@ use std::process::Command;
 use std::sync::Arc;
 use std::time::Instant;
 
-const CELLS: usize = 64;
+use scenes::CELLS;
 const SIZE: usize = 96;
 const KAPPA: f64 = 40.0;
 const ALBEDO: f64 = 0.95;
@@ -38,22 +38,6 @@ const G: f64 = 0.5;
 const EYE: DVec3 = DVec3::new(0.4, 0.3, 3.0);
 const SUN: DVec3 = DVec3::new(-0.5, -1.0, -0.4);
 const SKY: DVec3 = DVec3::new(0.1, 0.15, 0.25);
-
-fn grid_values() -> Vec<f32> {
-    let cell = 1.2 / CELLS as f64;
-    let mut values = Vec::with_capacity(CELLS.pow(3));
-    for k in 0..CELLS {
-        for j in 0..CELLS {
-            for i in 0..CELLS {
-                let border = [i, j, k].iter().any(|&c| c < 2 || c + 2 >= CELLS);
-                let p = DVec3::splat(-0.6)
-                    + DVec3::new(i as f64 + 0.5, j as f64 + 0.5, k as f64 + 0.5) * cell;
-                values.push(if border { 0.0 } else { scenes::cloud(p) as f32 });
-            }
-        }
-    }
-    values
-}
 
 fn write_vol(path: &Path, values: &[f32]) {
     let mut bytes = b"VOL\x03".to_vec();
@@ -158,7 +142,7 @@ fn four_scenes() {
 
 /// Part 2: the path tracer's speed against Mitsuba 3's.
 fn mitsuba_speed() {
-    let values = grid_values();
+    let values = scenes::cell_values(scenes::cloud);
     let dir = tempfile::tempdir().expect("temporary directory");
     write_vol(&dir.path().join("density.vol"), &values);
     let domain = Domain::with_cells(

@@ -61,6 +61,20 @@ fn a_path_traced_render_writes_its_variance_channels() {
     }
 }
 
+/// A render with `options` fails with `expected` in its diagnostic, which points at the call.
+fn assert_refused(options: &str, expected: &str) {
+    let run = script(&format!(
+        r#"render("x.exr", density = rho, camera = cam, width = 4, height = 4, {options});"#
+    ));
+    assert!(!run.ok, "{options} was accepted");
+    assert!(
+        run.rendered.contains(expected),
+        "{options}: expected '{expected}' in\n{}",
+        run.rendered
+    );
+    assert!(run.rendered.contains("path.felt:4:"), "{}", run.rendered);
+}
+
 #[test]
 fn options_of_the_other_integrator_are_errors() {
     let cases = [
@@ -81,17 +95,7 @@ fn options_of_the_other_integrator_are_errors() {
         (r#"integrator = "pathtracer""#, "integrator"),
     ];
     for (options, expected) in cases {
-        let run = script(&format!(
-            r#"render("x.exr", density = rho, camera = cam, width = 4, height = 4, {options});"#
-        ));
-        assert!(!run.ok, "{options} was accepted");
-        assert!(
-            run.rendered.contains(expected),
-            "{options}: expected '{expected}' in\n{}",
-            run.rendered
-        );
-        // Every error points at the render call.
-        assert!(run.rendered.contains("path.felt:4:"), "{}", run.rendered);
+        assert_refused(options, expected);
     }
 }
 
@@ -126,15 +130,7 @@ fn the_marchs_indirect_grid_keywords_follow_their_rules() {
         ("albedo = 1, msattenuation = 0.3", "add multiscatter = 3"),
     ];
     for (options, expected) in refused {
-        let run = script(&format!(
-            r#"render("x.exr", density = rho, camera = cam, width = 4, height = 4, {options});"#
-        ));
-        assert!(!run.ok, "{options} was accepted");
-        assert!(
-            run.rendered.contains(expected),
-            "{options}: expected '{expected}' in\n{}",
-            run.rendered
-        );
+        assert_refused(options, expected);
     }
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("x.exr");

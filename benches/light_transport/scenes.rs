@@ -92,8 +92,8 @@ pub fn scenes() -> Vec<LightScene> {
     ]
 }
 
-/// The scene's density as a cache.
-pub fn density(scene: &LightScene) -> CompiledField {
+/// `density` at the centres of the 64³ cells, x fastest, zero in the two outer cells.
+pub fn cell_values(density: fn(DVec3) -> f64) -> Vec<f32> {
     let cell = 1.2 / CELLS as f64;
     let mut values = Vec::with_capacity(CELLS.pow(3));
     for k in 0..CELLS {
@@ -102,11 +102,18 @@ pub fn density(scene: &LightScene) -> CompiledField {
                 let border = [i, j, k].iter().any(|&c| c < 2 || c + 2 >= CELLS);
                 let p = DVec3::splat(-0.6)
                     + DVec3::new(i as f64 + 0.5, j as f64 + 0.5, k as f64 + 0.5) * cell;
-                let v = if border { 0.0 } else { (scene.density)(p) };
+                let v = if border { 0.0 } else { density(p) };
                 values.push(v as f32);
             }
         }
     }
+    values
+}
+
+/// The scene's density as a cache.
+pub fn density(scene: &LightScene) -> CompiledField {
+    let cell = 1.2 / CELLS as f64;
+    let values = cell_values(scene.density);
     let domain = Domain::with_cells(
         DVec3::splat(-0.6),
         DVec3::splat(1.2),
