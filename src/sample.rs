@@ -219,6 +219,7 @@ pub struct FnField<F> {
     width: usize,
     function: F,
     bounds: Option<Aabb>,
+    range: Option<(f64, f64)>,
 }
 
 impl<F> FnField<F>
@@ -230,11 +231,19 @@ where
             width,
             function,
             bounds: None,
+            range: None,
         }
     }
 
     pub fn with_bounds(mut self, bounds: Aabb) -> FnField<F> {
         self.bounds = Some(bounds);
+        self
+    }
+
+    /// Declares every component to lie in `[lo, hi]` everywhere, so the path tracer can bound
+    /// the field; the caller vouches for it, as a closure has no interval form.
+    pub fn with_range(mut self, lo: f64, hi: f64) -> FnField<F> {
+        self.range = Some((lo, hi));
         self
     }
 }
@@ -288,8 +297,9 @@ where
         self.bounds
     }
 
-    /// A closure has no interval form: the range is unknown, hence unbounded.
+    /// A closure has no interval form: the range is the declared one, or unbounded.
     fn range(&self, _region: &Aabb) -> Vec<(f64, f64)> {
-        vec![(f64::NEG_INFINITY, f64::INFINITY); self.width]
+        let range = self.range.unwrap_or((f64::NEG_INFINITY, f64::INFINITY));
+        vec![range; self.width]
     }
 }

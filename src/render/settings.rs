@@ -166,6 +166,10 @@ pub struct RenderSettings {
     /// the daylight sky), seen by every path that leaves the box after scattering (so it is
     /// shadowed by the medium).
     pub sky: Sky,
+    /// What a camera ray sees where it leaves the medium, weighed by its transmittance, in
+    /// both integrators (alpha is then 1); `None` leaves the image transparent there, to be
+    /// composited. It is not light: the medium is lit by `sky`, which is usually the same.
+    pub background: Option<Sky>,
     /// March in the albedo model: the grid of indirect light (orders ≥ 2, the sky, scattered
     /// emission), or `None` for single scattering alone (`multiscatter = 0`, or the octaves).
     pub indirect: Option<super::indirect::IndirectSettings>,
@@ -212,6 +216,7 @@ impl Default for RenderSettings {
             integrator: Integrator::March,
             bounces: 64,
             sky: Sky::default(),
+            background: None,
             indirect: Some(super::indirect::IndirectSettings::default()),
             shutter: 0.5,
             shutter_position: super::motion::ShutterPosition::Center,
@@ -223,6 +228,22 @@ impl Default for RenderSettings {
 pub const MAX_IMAGE_SIDE: usize = 1 << 16;
 /// The most samples a single ray may take at the fixed step (or the smallest adaptive step).
 pub const MAX_STEPS_PER_RAY: f64 = 1e7;
+
+/// A uniform radiance given as `what` must be finite and non-negative per channel (a map or
+/// the daylight sky is checked where it is made).
+fn uniform_radiance(what: &str, sky: &Sky) -> Outcome<()> {
+    match sky {
+        Sky::Uniform(radiance) if !radiance.is_finite() || radiance.min_element() < 0.0 => {
+            Err(Failure::new(format!(
+                "{what} must be finite and non-negative, got {radiance}"
+            ))
+            .with_help(format!(
+                "{what} is the radiance of a uniform sky, per colour channel"
+            )))
+        }
+        _ => Ok(()),
+    }
+}
 
 fn positive(what: &str, v: f64) -> Outcome<()> {
     if v.is_finite() && v > 0.0 {
@@ -352,13 +373,9 @@ impl RenderSettings {
                 self.bounces
             )));
         }
-        if let Sky::Uniform(radiance) = self.sky
-            && (!radiance.is_finite() || radiance.min_element() < 0.0)
-        {
-            return Err(Failure::new(format!(
-                "sky must be finite and non-negative, got {radiance}"
-            ))
-            .with_help("sky is the radiance of a uniform sky, per colour channel"));
+        uniform_radiance("sky", &self.sky)?;
+        if let Some(background) = &self.background {
+            uniform_radiance("background", background)?;
         }
         match self.integrator {
             Integrator::March => {

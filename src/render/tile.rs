@@ -232,14 +232,25 @@ impl Rays {
         for pixel in 0..w * h {
             let range = pixel * spp..(pixel + 1) * spp;
             let mean = |v: &[DVec3]| v[range.clone()].iter().copied().sum::<DVec3>() * inv;
-            let color = mean(&rays.color);
+            let mut color = mean(&rays.color);
             let transmittance = mean(&rays.transmittance).element_sum() / 3.0;
+            // Behind the medium each ray sees the background through what it has left.
+            let alpha = match &frame.settings.background {
+                Some(background) => {
+                    let seen = range
+                        .clone()
+                        .map(|r| rays.transmittance[r] * background.radiance(rays.direction[r]));
+                    color += seen.sum::<DVec3>() * inv;
+                    1.0
+                }
+                None => 1.0 - transmittance,
+            };
             let bad = &mut stats.bad_pixels;
             rgba.push([
                 channel(color.x, bad),
                 channel(color.y, bad),
                 channel(color.z, bad),
-                (1.0 - transmittance) as f32,
+                alpha as f32,
             ]);
             if aovs.depth {
                 let weight: f64 = rays.opacity[range.clone()].iter().sum();

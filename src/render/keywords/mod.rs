@@ -128,6 +128,14 @@ impl Setting {
             _ => "",
         }
     }
+
+    /// A sky given as a light (`envmap`, `physicalsky`) or as a uniform radiance.
+    fn sky(&self) -> Sky {
+        match self {
+            Setting::Sky(sky) => sky.clone(),
+            other => Sky::Uniform(other.vector()),
+        }
+    }
 }
 
 /// Allowed strings of a keyword: the noun the checker uses in its messages, and the values.

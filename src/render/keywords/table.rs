@@ -7,7 +7,6 @@ use crate::failure::{Failure, Outcome};
 use crate::render::Phase;
 use crate::render::motion::ShutterPosition;
 use crate::render::settings::{Aovs, Integrator, MAX_BOUNCES, MultiScatter, Shadows};
-use crate::render::sky::Sky;
 use crate::render::transmittance::TransmissivityMethod;
 use crate::render::view::View;
 
@@ -496,10 +495,20 @@ pub const KEYWORDS: &[Keyword] = &[
         doc: "radiance of a uniform sky, or an `envmap` or `physicalsky`, shadowed by the \
               medium (march: needs albedo)",
         apply: Some(|o, v| {
-            o.settings.sky = match v {
-                Setting::Sky(sky) => sky.clone(),
-                other => Sky::Uniform(other.vector()),
-            };
+            o.settings.sky = v.sky();
+            Ok(())
+        }),
+    },
+    Keyword {
+        name: "background",
+        kind: KeywordType::Sky,
+        default: "none (transparent)",
+        choices: None,
+        aliases: &[],
+        doc: "what the camera sees behind the medium: a radiance, or an `envmap` or \
+              `physicalsky` (usually the `sky`); alpha is then 1",
+        apply: Some(|o, v| {
+            o.settings.background = Some(v.sky());
             Ok(())
         }),
     },

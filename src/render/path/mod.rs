@@ -19,7 +19,9 @@
 //! ends weak paths after `ROULETTE_AFTER` scatterings, unbiased. The one key decision: like the
 //! march's image, a pixel's colour is premultiplied and the sky is not drawn behind the medium:
 //! alpha is one minus the camera ray's transmittance, so composited over the sky
-//! (`rgb + (1 − alpha)·sky`) the image is what a camera inside that sky sees.
+//! (`rgb + (1 − alpha)·sky`) the image is what a camera inside that sky sees. A `background`
+//! does that compositing per path instead, with each camera ray's own direction and
+//! transmittance (`T(x, x_d)·L_background`), and makes alpha 1.
 
 pub mod emitters;
 pub mod majorant;
@@ -286,8 +288,11 @@ impl<'a> Frame<'a> {
                 }
                 let mut random = PathRandom::new(s.seed, pixel, sample as u64);
                 let ray = self.raster.ray(x, y, random.uniform(), random.uniform());
-                let (radiance, transmittance) =
+                let (mut radiance, transmittance) =
                     self.trace(medium, ray, &mut random, Unscattered::Transmitted);
+                if let Some(background) = &s.background {
+                    radiance += transmittance * background.radiance(ray.direction);
+                }
                 sum += radiance;
                 squares += radiance * radiance;
                 transmitted += transmittance.element_sum() / 3.0;
@@ -299,7 +304,13 @@ impl<'a> Frame<'a> {
                 channel(mean.x, bad),
                 channel(mean.y, bad),
                 channel(mean.z, bad),
-                channel(1.0 - transmitted / n, bad),
+                channel(
+                    match s.background {
+                        Some(_) => 1.0,
+                        None => 1.0 - transmitted / n,
+                    },
+                    bad,
+                ),
             ]);
             if s.aovs.variance {
                 // The sample variance of the paths over n: the variance of the pixel's mean.

@@ -1,6 +1,7 @@
-//! Renders of scenes with closed-form answers (`closed_forms`), the properties every render
-//! must have (`properties`), and inputs the march cannot use (`bad_inputs`).
+//! Renders of scenes with closed-form answers (`closed_forms`, `background`), the properties
+//! every render must have (`properties`), and inputs the march cannot use (`bad_inputs`).
 
+mod background;
 mod bad_inputs;
 mod closed_forms;
 mod properties;
@@ -10,7 +11,12 @@ use crate::sample::{Aabb, FnField};
 use glam::DVec3;
 
 /// Constant `value` (replicated to `width` components) inside the box `[-1,1]² × [z0, z1]`.
-fn slab(width: usize, value: DVec3, z0: f64, z1: f64) -> impl FieldSampler {
+fn slab(
+    width: usize,
+    value: DVec3,
+    z0: f64,
+    z1: f64,
+) -> FnField<impl Fn(DVec3, &mut [f64]) + Send + Sync> {
     FnField::new(width, move |p: DVec3, out: &mut [f64]| {
         let inside = p.z >= z0 && p.z <= z1 && p.x.abs() <= 1.0 && p.y.abs() <= 1.0;
         for (c, o) in out.iter_mut().enumerate() {
