@@ -495,6 +495,10 @@ impl<'a> Worker<'a> {
                 }
             }
         }
+        if let Some(curves) = rays.deep.as_mut() {
+            let color = rays.color[r];
+            curves.record(r, t0, t1, before, color, after, color + contribution);
+        }
         rays.color[r] += contribution;
         if frame.aov_count > 0 {
             rays.emitted[r] += visible * emission;

@@ -18,6 +18,8 @@ pub mod band;
 pub mod blackbody;
 pub mod camera;
 pub mod cie1931;
+pub mod deep;
+pub mod deep_exr;
 pub mod exr_header;
 pub mod exr_order;
 pub mod image;
@@ -232,6 +234,27 @@ pub fn render_with_stats(
     scene: &Scene,
     settings: &RenderSettings,
 ) -> Outcome<(Image, RenderStats)> {
+    render_layers(scene, settings).map(|(image, _, stats)| (image, stats))
+}
+
+/// Renders the flat image and, for `settings.deep`, the deep image whose samples composite to
+/// it (see `deep`).
+pub fn render_deep(
+    scene: &Scene,
+    settings: &RenderSettings,
+) -> Outcome<(Image, deep::DeepImage, RenderStats)> {
+    if settings.deep.is_none() {
+        return Err(Failure::internal("render_deep without deep settings"));
+    }
+    let (image, deep, stats) = render_layers(scene, settings)?;
+    let deep = deep.ok_or_else(|| Failure::internal("the march made no deep image"))?;
+    Ok((image, deep, stats))
+}
+
+fn render_layers(
+    scene: &Scene,
+    settings: &RenderSettings,
+) -> Outcome<(Image, Option<deep::DeepImage>, RenderStats)> {
     settings.validate()?;
     check_width("density", scene.density, 1)?;
     for (what, field, width) in [
@@ -281,14 +304,15 @@ pub fn render_with_stats(
                 4 + channels
             ),
         )?;
-        return path::render(
+        let (image, stats) = path::render(
             scene,
             settings,
             bounds,
             motion.as_ref(),
             seen_density,
             seen_emission,
-        );
+        )?;
+        return Ok((image, None, stats));
     }
     let step = settings.step.unwrap_or(bounds.size().max_element() / 256.0);
     let smallest = settings.adaptive.map_or(step, |a| a.min_step.min(step));
@@ -434,7 +458,11 @@ pub fn render_with_stats(
         }
     }
     stats.density_reads_grids = !scene.density.grids().is_empty();
-    Ok((image, stats))
+    let deep = match settings.deep {
+        Some(_) => Some(deep::gather(&outputs, settings.width, settings.height)?),
+        None => None,
+    };
+    Ok((image, deep, stats))
 }
 
 /// The march's grid of indirect light, where the render has one and something lights it.
