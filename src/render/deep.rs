@@ -59,6 +59,11 @@ pub fn curve_points(samples: usize) -> usize {
     (2 * samples).clamp(16, 128)
 }
 
+/// Bytes of the curves of `rays` rays at `samples` deep samples per pixel.
+pub fn curve_bytes(samples: usize, rays: usize) -> usize {
+    rays * (curve_points(samples) * std::mem::size_of::<CurvePoint>() + 32)
+}
+
 /// Every ray's curve in a tile, structure of arrays: ray `r` owns `points[r·bound ..]`.
 #[derive(Default)]
 pub struct DeepCurves {

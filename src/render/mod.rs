@@ -7,7 +7,8 @@
 //! `transmittance` and `sweep` (light reaching each point through the volume, precomputed on
 //! grids), `lighting` (illumination at a sample), `space` (empty-space skipping), `march` (the
 //! integrator, eqs. 1.1–1.4 of the course notes), `adaptive` (step control), `tile` (ray state
-//! and pixels), `settings`, `image` (files).
+//! and pixels), `settings`, `image` (files), `deep` and `deep_exr` (per-depth samples and the
+//! deep OpenEXR files they are written to).
 //!
 //! The one key decision: the march needs a finite box — the `bounds` setting, else the
 //! density's own bounds — and everything (step default, shadow grids, empty-space bricks) is
@@ -62,7 +63,7 @@ use crate::failure::{Failure, Outcome};
 use crate::sample::{Aabb, FieldSampler};
 use glam::DVec3;
 use lighting::Illumination;
-use march::{Frame, Worker, tile_side};
+use march::{Frame, Worker, side_rays, tile_side};
 use progress::Progress;
 use rayon::prelude::*;
 use space::Occupancy;
@@ -348,6 +349,15 @@ fn render_layers(
         ),
     )?;
 
+    // Deep output: every worker's curves, one tile of rays each (`deep::curve_points`).
+    let _curves = match settings.deep {
+        Some(most) => Some(crate::budget::reserve(
+            (rayon::current_num_threads() * deep::curve_bytes(most, side_rays(settings.spp)))
+                as f64,
+            "the deep image's curves along each worker's rays",
+        )?),
+        None => None,
+    };
     let started = Instant::now();
     let illumination = Illumination::new(scene.density, &scene.lights, settings, bounds, step)?;
     let indirect_started = Instant::now();

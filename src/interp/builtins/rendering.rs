@@ -167,7 +167,8 @@ fn setting(a: &Args, keyword: &Keyword) -> Outcome<Option<Setting>> {
 }
 
 fn run_render(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
-    let path = interp.files.writing(a.string("path")?)?;
+    let written = a.string("path")?;
+    let path = interp.files.writing(written)?;
     let density = CompiledField::prepared(&a.get("density")?.as_field()?)?;
     let (color, emission, holdout) = (
         opt_field(&a, "color")?,
@@ -204,8 +205,7 @@ fn run_render(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
     if options.settings.deep.is_some() && !exr {
         // docs/language.md, "Deep images": only OpenEXR holds deep samples.
         return Err(Failure::new(format!(
-            "deep = true writes a deep OpenEXR file, and '{}' is not one",
-            path.display()
+            "deep = true writes a deep OpenEXR file, and '{written}' is not one"
         ))
         .with_help("end the file name in .exr, or leave out deep = true for a PNG preview"));
     }
