@@ -30,24 +30,26 @@ fn samples_composite_to_the_pixel_they_cut() {
 
 #[test]
 fn an_opaque_boundary_and_a_holdout_keep_alphas_in_range_and_flattening_exact() {
-    // T̄ reaches 0, then a holdout raises it to 0.3 (as the march's lerp can).
-    let pixel = [
-        (0.0, state(1.0, [0.0; 3])),
-        (1.0, state(0.4, [0.2, 0.2, 0.2])),
-        (2.0, state(0.0, [0.5, 0.4, 0.3])),
-        (3.0, state(0.3, [0.5, 0.4, 0.3])),
-        (4.0, state(0.25, [0.6, 0.4, 0.3])),
-    ];
-    let mut out = Vec::new();
-    samples_between(&pixel, &mut out);
-    assert!(
-        out.iter().all(|s| (0.0..=1.0).contains(&s.alpha)),
-        "{out:?}"
-    );
-    assert!(out.iter().all(|s| s.color.iter().all(|c| c.is_finite())));
-    let flat = flatten(&out);
-    for (got, want) in flat.iter().zip([0.6, 0.4, 0.3, 0.75]) {
-        assert!((got - want).abs() < 1e-6, "{flat:?}");
+    // T̄ falls to 0.1 (or to 0), then a holdout raises it to 0.3, as the march's lerp can.
+    for low in [0.1, 0.0] {
+        let pixel = [
+            (0.0, state(1.0, [0.0; 3])),
+            (1.0, state(0.4, [0.2, 0.2, 0.2])),
+            (2.0, state(low, [0.5, 0.4, 0.3])),
+            (3.0, state(0.3, [0.5, 0.4, 0.3])),
+            (4.0, state(0.25, [0.6, 0.4, 0.3])),
+        ];
+        let mut out = Vec::new();
+        samples_between(&pixel, &mut out);
+        assert!(
+            out.iter().all(|s| (0.0..=1.0).contains(&s.alpha)),
+            "{out:?}"
+        );
+        assert!(out.iter().all(|s| s.color.iter().all(|c| c.is_finite())));
+        let flat = flatten(&out);
+        for (got, want) in flat.iter().zip([0.6, 0.4, 0.3, 0.75]) {
+            assert!((got - want).abs() < 1e-6, "T̄ down to {low}: {flat:?}");
+        }
     }
 }
 
