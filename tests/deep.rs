@@ -336,6 +336,10 @@ fn what_a_deep_file_cannot_hold_is_refused() {
             "\"x.exr\", deep = true, exr_half = true",
             "exr_half is not carried",
         ),
+        (
+            "\"x.exr\", deep = true, tonemap = \"max1\"",
+            "tonemap is not carried",
+        ),
         ("\"x.exr\", deepsamples = 8", "this render is flat"),
         (
             "\"x.exr\", deep = true, deepsamples = 0",
