@@ -501,6 +501,8 @@ impl<'a> Worker<'a> {
                 }
             }
         }
+        // Deep output keeps the step on the ray's curve by depth (`deep`); a flat render has
+        // no curves, and this test is all it pays.
         if let Some(curves) = rays.deep.as_mut() {
             let color = rays.color[r];
             curves.record(r, t0, t1, before, color, after, color + contribution);
