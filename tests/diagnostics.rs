@@ -109,6 +109,26 @@ const CASES: &[(&str, usize, usize, &str)] = &[
         1,
         "sky takes a vector or a sky, found a distant or point light",
     ),
+    (
+        "deep_with_path_tracer",
+        3,
+        1,
+        "the path tracer does not keep",
+    ),
+    ("deep_to_png", 3, 1, "'out.png' is not one"),
+    (
+        "deep_with_aovs",
+        3,
+        1,
+        "aovs is not carried in a deep image",
+    ),
+    ("deepsamples_without_deep", 3, 1, "this render is flat"),
+    (
+        "deep_with_background",
+        3,
+        1,
+        "a deep image holds the medium alone",
+    ),
 ];
 
 /// The cases `felt check` must find without running anything: each is reported by the

@@ -6,7 +6,7 @@
 //! unsaved text as the file it names, imports resolved relative to it, and checks it), so the
 //! editor and the command line never disagree. What the editor asks about a place in the text
 //! (hover, completion, signature help, definition, symbols) is answered from the tokens of
-//! the buffer ([`outline`]), not from a syntax tree, because the text being typed rarely
+//! the buffer (`outline`), not from a syntax tree, because the text being typed rarely
 //! parses; the lexer never gives up, so a half-typed file still has an outline.
 //!
 //! Built on rust-analyzer's `lsp-server` (the message loop and JSON-RPC framing, MIT or

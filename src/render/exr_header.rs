@@ -70,6 +70,13 @@ pub fn transform_point(m: &RowMatrix, p: glam::DVec3) -> glam::DVec3 {
     glam::DVec3::new(out[0], out[1], out[2]) / out[3]
 }
 
+/// OpenEXR text is Latin-1: each character as its byte, anything beyond as '?'.
+pub fn latin1(text: &str) -> Vec<u8> {
+    text.chars()
+        .map(|c| u8::try_from(u32::from(c)).unwrap_or(b'?'))
+        .collect()
+}
+
 /// The header of a render: the camera's matrices, then the `provenance` text pairs.
 pub fn options(
     camera: &Camera,

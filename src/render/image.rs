@@ -207,14 +207,7 @@ fn write_exr(
     }
     let mut attributes = LayerAttributes::default();
     for (name, value) in &options.attributes {
-        // OpenEXR text is Latin-1; anything else is written as '?'.
-        let latin1 = |text: &str| {
-            let bytes: Vec<u8> = text
-                .chars()
-                .map(|c| u8::try_from(u32::from(c)).unwrap_or(b'?'))
-                .collect();
-            Text::from_slice_unchecked(&bytes)
-        };
+        let latin1 = |text: &str| Text::from_slice_unchecked(&super::exr_header::latin1(text));
         let value = match value {
             HeaderValue::Text(text) => AttributeValue::Text(latin1(text)),
             HeaderValue::Matrix(rows) => {

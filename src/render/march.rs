@@ -58,6 +58,12 @@ pub fn tile_side(spp: u32) -> usize {
     side
 }
 
+/// Sample rays in a tile at `spp` samples per pixel.
+pub fn side_rays(spp: u32) -> usize {
+    let side = tile_side(spp);
+    side * side * spp as usize
+}
+
 /// `(ΔT, φ)` for a step of optical thickness `x = κρΔs` from one `expm1`: `ΔT = 1 + expm1(−x)`
 /// (exact to 1e-16 absolute, in [0, 1]) and `φ(x) = −expm1(−x)/x = (1 − e^−x)/x`, which tends
 /// to 1 as `x → 0` (taken from its series below 1e-8) and to 0 as `x → ∞`.
@@ -494,6 +500,12 @@ impl<'a> Worker<'a> {
                     }
                 }
             }
+        }
+        // Deep output keeps the step on the ray's curve by depth (`deep`); a flat render has
+        // no curves, and this test is all it pays.
+        if let Some(curves) = rays.deep.as_mut() {
+            let color = rays.color[r];
+            curves.record(r, t0, t1, before, color, after, color + contribution);
         }
         rays.color[r] += contribution;
         if frame.aov_count > 0 {

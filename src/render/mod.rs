@@ -7,7 +7,8 @@
 //! `transmittance` and `sweep` (light reaching each point through the volume, precomputed on
 //! grids), `lighting` (illumination at a sample), `space` (empty-space skipping), `march` (the
 //! integrator, eqs. 1.1–1.4 of the course notes), `adaptive` (step control), `tile` (ray state
-//! and pixels), `settings`, `image` (files).
+//! and pixels), `settings`, `image` (files), `deep` and `deep_exr` (per-depth samples and the
+//! deep OpenEXR files they are written to).
 //!
 //! The one key decision: the march needs a finite box — the `bounds` setting, else the
 //! density's own bounds — and everything (step default, shadow grids, empty-space bricks) is
@@ -18,6 +19,8 @@ pub mod band;
 pub mod blackbody;
 pub mod camera;
 pub mod cie1931;
+pub mod deep;
+pub mod deep_exr;
 pub mod exr_header;
 pub mod exr_order;
 pub mod image;
@@ -60,7 +63,7 @@ use crate::failure::{Failure, Outcome};
 use crate::sample::{Aabb, FieldSampler};
 use glam::DVec3;
 use lighting::Illumination;
-use march::{Frame, Worker, tile_side};
+use march::{Frame, Worker, side_rays, tile_side};
 use progress::Progress;
 use rayon::prelude::*;
 use space::Occupancy;
@@ -232,6 +235,27 @@ pub fn render_with_stats(
     scene: &Scene,
     settings: &RenderSettings,
 ) -> Outcome<(Image, RenderStats)> {
+    render_layers(scene, settings).map(|(image, _, stats)| (image, stats))
+}
+
+/// Renders the flat image and, for `settings.deep`, the deep image whose samples composite to
+/// it (see `deep`).
+pub fn render_deep(
+    scene: &Scene,
+    settings: &RenderSettings,
+) -> Outcome<(Image, deep::DeepImage, RenderStats)> {
+    if settings.deep.is_none() {
+        return Err(Failure::internal("render_deep without deep settings"));
+    }
+    let (image, deep, stats) = render_layers(scene, settings)?;
+    let deep = deep.ok_or_else(|| Failure::internal("the march made no deep image"))?;
+    Ok((image, deep, stats))
+}
+
+fn render_layers(
+    scene: &Scene,
+    settings: &RenderSettings,
+) -> Outcome<(Image, Option<deep::DeepImage>, RenderStats)> {
     settings.validate()?;
     check_width("density", scene.density, 1)?;
     for (what, field, width) in [
@@ -281,14 +305,15 @@ pub fn render_with_stats(
                 4 + channels
             ),
         )?;
-        return path::render(
+        let (image, stats) = path::render(
             scene,
             settings,
             bounds,
             motion.as_ref(),
             seen_density,
             seen_emission,
-        );
+        )?;
+        return Ok((image, None, stats));
     }
     let step = settings.step.unwrap_or(bounds.size().max_element() / 256.0);
     let smallest = settings.adaptive.map_or(step, |a| a.min_step.min(step));
@@ -324,6 +349,15 @@ pub fn render_with_stats(
         ),
     )?;
 
+    // Deep output: every worker's curves, one tile of rays each (`deep::curve_points`).
+    let _curves = match settings.deep {
+        Some(most) => Some(crate::budget::reserve(
+            (rayon::current_num_threads() * deep::curve_bytes(most, side_rays(settings.spp)))
+                as f64,
+            "the deep image's curves along each worker's rays",
+        )?),
+        None => None,
+    };
     let started = Instant::now();
     let illumination = Illumination::new(scene.density, &scene.lights, settings, bounds, step)?;
     let indirect_started = Instant::now();
@@ -434,7 +468,11 @@ pub fn render_with_stats(
         }
     }
     stats.density_reads_grids = !scene.density.grids().is_empty();
-    Ok((image, stats))
+    let deep = match settings.deep {
+        Some(_) => Some(deep::gather(&outputs, settings.width, settings.height)?),
+        None => None,
+    };
+    Ok((image, deep, stats))
 }
 
 /// The march's grid of indirect light, where the render has one and something lights it.

@@ -176,6 +176,9 @@ pub struct RenderSettings {
     /// Motion blur (with a velocity): the shutter's length in frames and where it opens.
     pub shutter: f64,
     pub shutter_position: super::motion::ShutterPosition,
+    /// Deep output (`deep = true`): the most samples per pixel the march keeps per-depth
+    /// colour for (`render::deep`); `None` for a flat image, which records nothing per depth.
+    pub deep: Option<usize>,
 }
 
 impl RenderSettings {
@@ -220,6 +223,7 @@ impl Default for RenderSettings {
             indirect: Some(super::indirect::IndirectSettings::default()),
             shutter: 0.5,
             shutter_position: super::motion::ShutterPosition::Center,
+            deep: None,
         }
     }
 }
@@ -335,6 +339,18 @@ impl RenderSettings {
                 "ambient must be finite and non-negative, got {}",
                 self.ambient
             )));
+        }
+        if let Some(most) = self.deep {
+            if !(1..=1024).contains(&most) {
+                return Err(Failure::new(format!(
+                    "deep samples per pixel must be between 1 and 1024, got {most}"
+                )));
+            }
+            if self.integrator == Integrator::Path {
+                return Err(Failure::new(
+                    "deep output needs the march: the path tracer keeps no colour per depth",
+                ));
+            }
         }
         if let Some(a) = &self.adaptive {
             positive("adaptive min_step", a.min_step)?;

@@ -8,6 +8,7 @@
 
 use super::adaptive::Snapshot;
 use super::camera::jitter;
+use super::deep::{DeepCurves, DeepSample, curve_points};
 use super::march::Frame;
 use super::space::{BrickWalk, clip_to_box};
 use glam::DVec3;
@@ -83,6 +84,9 @@ pub struct TileOutput {
     pub height: usize,
     pub rgba: Vec<[f32; 4]>,
     pub aovs: Vec<f32>,
+    /// Deep output only: samples per pixel (row-major within the tile), and the samples.
+    pub deep_counts: Vec<u32>,
+    pub deep_samples: Vec<DeepSample>,
     pub stats: MarchStats,
 }
 
@@ -112,6 +116,8 @@ pub struct Rays {
     /// Adaptive stepping: the state before the last accepted step, per ray (and per light).
     pub undo: Vec<Snapshot>,
     pub undo_lit: Vec<DVec3>,
+    /// Deep output only: each ray's colour and transmittance by depth.
+    pub deep: Option<DeepCurves>,
 }
 
 impl Rays {
@@ -145,6 +151,9 @@ impl Rays {
         let lit = r * lights..(r + 1) * lights;
         self.lit[lit.clone()].copy_from_slice(&self.undo_lit[lit]);
         self.undo[r].length = 0.0;
+        if let Some(curves) = self.deep.as_mut() {
+            curves.rewind(r, u.t, u.transmittance, u.color);
+        }
     }
 
     /// Sets up the rays of the tile at `(x0, y0)` of size `w × h`.
@@ -209,6 +218,17 @@ impl Rays {
         if s.adaptive.is_some() {
             reset(&mut r.undo, n, Snapshot::default());
             reset(&mut r.undo_lit, n * lights, DVec3::ZERO);
+        }
+        match s.deep {
+            Some(most) => {
+                let curves = r.deep.get_or_insert_with(DeepCurves::default);
+                curves.reset(n, curve_points(most));
+                let forward = frame.camera.axes().2;
+                for (origin, direction) in r.origin.iter().zip(&r.direction) {
+                    curves.aim(frame.camera.depth(*origin), direction.dot(forward));
+                }
+            }
+            None => r.deep = None,
         }
     }
 
@@ -281,6 +301,25 @@ impl Rays {
                 }
             }
         }
+        let (deep_counts, deep_samples) = match (&rays.deep, frame.settings.deep) {
+            (Some(curves), Some(most)) => {
+                let (mut counts, mut samples) = (Vec::with_capacity(w * h), Vec::new());
+                let mut scratch = Vec::new();
+                for pixel in 0..w * h {
+                    let count = curves.pixel_samples(
+                        pixel * spp..(pixel + 1) * spp,
+                        &rays.transmittance,
+                        &rays.color,
+                        most,
+                        &mut scratch,
+                        &mut samples,
+                    );
+                    counts.push(count as u32);
+                }
+                (counts, samples)
+            }
+            _ => (Vec::new(), Vec::new()),
+        };
         TileOutput {
             x0,
             y0,
@@ -288,6 +327,8 @@ impl Rays {
             height: h,
             rgba,
             aovs: out,
+            deep_counts,
+            deep_samples,
             stats,
         }
     }

@@ -167,7 +167,8 @@ fn setting(a: &Args, keyword: &Keyword) -> Outcome<Option<Setting>> {
 }
 
 fn run_render(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
-    let path = interp.files.writing(a.string("path")?)?;
+    let written = a.string("path")?;
+    let path = interp.files.writing(written)?;
     let density = CompiledField::prepared(&a.get("density")?.as_field()?)?;
     let (color, emission, holdout) = (
         opt_field(&a, "color")?,
@@ -197,6 +198,17 @@ fn run_render(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
     };
     let velocity = opt_field(&a, "velocity")?;
     let options = RenderOptions::from_keywords(velocity.is_some(), |keyword| setting(&a, keyword))?;
+    let exr = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    if options.settings.deep.is_some() && !exr {
+        // docs/language.md, "Deep images": only OpenEXR holds deep samples.
+        return Err(Failure::new(format!(
+            "deep = true writes a deep OpenEXR file, and '{written}' is not one"
+        ))
+        .with_help("end the file name in .exr, or leave out deep = true for a PNG preview"));
+    }
     let settings = options.settings;
     let scene = Scene {
         density: &density,
@@ -229,11 +241,18 @@ fn run_render(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
         half,
         crate::provenance::of(interp),
     );
-    let (mut image, render_stats) = render::render_with_stats(&scene, &settings)?;
-    if let Some(map) = &options.tonemap {
-        map.apply(&mut image);
-    }
-    let clamped = render::write_image_viewed(&path, &image, &header, options.view)?;
+    let (image, render_stats, clamped) = if settings.deep.is_some() {
+        let (image, deep, stats) = render::render_deep(&scene, &settings)?;
+        render::deep_exr::write_deep(&path, &deep, &header)?;
+        (image, stats, 0)
+    } else {
+        let (mut image, stats) = render::render_with_stats(&scene, &settings)?;
+        if let Some(map) = &options.tonemap {
+            map.apply(&mut image);
+        }
+        let clamped = render::write_image_viewed(&path, &image, &header, options.view)?;
+        (image, stats, clamped)
+    };
     if clamped > 0 {
         interp.warnings.push(
             Diagnostic::warning(

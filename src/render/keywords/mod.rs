@@ -161,6 +161,8 @@ pub struct RenderOptions {
     pub tonemap: Option<ToneMap>,
     pub view: View,
     pub exr_half: bool,
+    deep: bool,
+    deep_samples: usize,
     tonemap_name: Option<String>,
     brightness: Option<f64>,
     gamma: Option<f64>,
@@ -177,6 +179,8 @@ impl Default for RenderOptions {
             tonemap: None,
             view: View::Standard,
             exr_half: false,
+            deep: false,
+            deep_samples: 32,
             tonemap_name: None,
             brightness: None,
             gamma: None,
@@ -252,6 +256,7 @@ impl RenderOptions {
             ))
             .with_help("the path tracer traces every path from the camera: leave it out"));
         }
+        self.deep_rules()?;
         self.tonemap = match &self.tonemap_name {
             Some(name) => Some(ToneMap::parse(name, self.brightness, self.gamma)?),
             None if self.brightness.is_some() || self.gamma.is_some() => {
@@ -262,6 +267,60 @@ impl RenderOptions {
             }
             None => None,
         };
+        Ok(())
+    }
+}
+
+impl RenderOptions {
+    /// What a deep image can be made from: the march's per-depth colour, one part, no extra
+    /// channels. Anything the deep file would silently drop is refused.
+    fn deep_rules(&mut self) -> Outcome<()> {
+        if !self.deep {
+            if self.given("deepsamples") {
+                return Err(Failure::new(
+                    "deepsamples sets the deep image's samples, and this render is flat",
+                )
+                .with_help("add deep = true, or leave deepsamples out"));
+            }
+            return Ok(());
+        }
+        if self.settings.integrator == Integrator::Path {
+            return Err(Failure::new(
+                "deep = true needs colour per depth along each ray, which the path tracer does \
+                 not keep",
+            )
+            .with_help("render deep images with the march: leave out integrator = \"path\""));
+        }
+        if self.settings.background.is_some() {
+            // The background lies at no depth, so samples that flatten to the flat image
+            // would have nowhere to put it.
+            return Err(Failure::new(
+                "a deep image holds the medium alone, and background puts the sky behind it",
+            )
+            .with_help("leave out background and put the sky behind the volume in compositing"));
+        }
+        let dropped = [
+            ("aovs", self.settings.aovs != super::Aovs::default()),
+            ("tonemap", self.tonemap_name.is_some()),
+            ("exr_half", self.exr_half),
+        ];
+        if let Some((name, _)) = dropped.iter().find(|(_, on)| *on) {
+            return Err(Failure::new(format!(
+                "{name} is not carried in a deep image, which holds only R, G, B, A, Z and ZBack"
+            ))
+            .with_help(format!(
+                "leave {name} out, or write it from a second, flat render"
+            )));
+        }
+        if let Some(band) = super::band::active() {
+            return Err(Failure::new(format!(
+                "deep images cannot be rendered in bands (this is band {} of {}): felt merge \
+                 joins flat images only",
+                band.index, band.count
+            ))
+            .with_help("render the deep frame whole: leave out --tile for it"));
+        }
+        self.settings.deep = Some(self.deep_samples);
         Ok(())
     }
 }

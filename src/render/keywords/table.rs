@@ -92,6 +92,21 @@ fn aovs(o: &mut RenderOptions, v: &Setting) -> Outcome<()> {
     Ok(())
 }
 
+/// The most samples per pixel a deep image may hold.
+const MAX_DEEP_SAMPLES: i64 = 1024;
+
+fn deep_samples(o: &mut RenderOptions, v: &Setting) -> Outcome<()> {
+    let n = v.int();
+    if !(1..=MAX_DEEP_SAMPLES).contains(&n) {
+        return Err(Failure::new(format!(
+            "deepsamples must be between 1 and {MAX_DEEP_SAMPLES}, found {n}"
+        ))
+        .with_help("32 samples hold a cloud's depth well; 1 gives one sample per pixel"));
+    }
+    o.deep_samples = n as usize;
+    Ok(())
+}
+
 fn shadows(o: &mut RenderOptions, v: &Setting) -> Outcome<()> {
     o.settings.shadows = match v.text() {
         "cache" => Shadows::default(),
@@ -467,6 +482,27 @@ pub const KEYWORDS: &[Keyword] = &[
             o.exr_half = *v == Setting::Bool(true);
             Ok(())
         }),
+    },
+    Keyword {
+        name: "deep",
+        kind: KeywordType::Bool,
+        default: "false",
+        choices: None,
+        aliases: &[],
+        doc: "the `.exr` is a deep scanline image: per-depth samples a compositor holds out against",
+        apply: Some(|o, v| {
+            o.deep = *v == Setting::Bool(true);
+            Ok(())
+        }),
+    },
+    Keyword {
+        name: "deepsamples",
+        kind: KeywordType::Int,
+        default: "32",
+        choices: None,
+        aliases: &[],
+        doc: "deep: the most samples per pixel (1 to 1024)",
+        apply: Some(deep_samples),
     },
     Keyword {
         name: "integrator",
