@@ -124,6 +124,12 @@ const CASES: &[(&str, usize, usize, &str)] = &[
     ),
     ("deepsamples_without_deep", 3, 1, "this render is flat"),
     (
+        "motion_aov_without_velocity",
+        3,
+        1,
+        "this render has no velocity",
+    ),
+    (
         "deep_with_background",
         3,
         1,

@@ -51,6 +51,8 @@ pub struct Snapshot {
     pub emitted: DVec3,
     pub depth_weighted: f64,
     pub opacity: f64,
+    /// The surface AOVs' sums (`render::surface`), where asked for.
+    pub surface: [DVec3; 3],
 }
 
 impl Snapshot {

@@ -161,6 +161,8 @@ struct Block {
     /// Motion blur: each sample's ray time, and the velocity at the samples.
     times: Vec<f64>,
     velocity: Vec<f64>,
+    /// The normal AOV: the density's gradient at each dense sample.
+    gradient: Vec<DVec3>,
 }
 
 /// One worker's evaluators and scratch space, reused across its tiles.
@@ -360,6 +362,10 @@ impl<'a> Worker<'a> {
             stats.color.samples += m as u64;
             sanitise(&mut b.color, 3, &b.dense_position, 0.0, &mut stats.color);
         }
+        if frame.settings.aovs.normal {
+            let h = 0.5 * frame.step;
+            super::surface::gradients(self.density.as_mut(), &b.dense_position, h, &mut b.gradient);
+        }
         b.scattered.resize(lights * m, DVec3::ZERO);
         b.columns.resize(m, 0.0);
         for light in 0..lights {
@@ -519,6 +525,21 @@ impl<'a> Worker<'a> {
             let depth = frame.camera.depth(b.position[k]);
             rays.depth_weighted[r] += opacity.max(0.0) * depth;
             rays.opacity[r] += opacity.max(0.0);
+            if let Some(surface) = rays.surface.as_mut() {
+                let sample = super::surface::SurfaceSample {
+                    point: rays.origin[r] + rays.direction[r] * (0.5 * (t0 + t1)),
+                    gradient: dense_index.map_or(DVec3::ZERO, |j| {
+                        b.gradient.get(j).copied().unwrap_or_default()
+                    }),
+                    velocity: match frame.motion {
+                        Some(_) => {
+                            DVec3::new(b.velocity[k], b.velocity[n + k], b.velocity[2 * n + k])
+                        }
+                        None => DVec3::ZERO,
+                    },
+                };
+                surface.add(r, opacity, &sample);
+            }
         }
         rays.transmittance[r] = after;
         rays.t[r] = t1;

@@ -36,6 +36,7 @@ pub mod progress;
 pub mod settings;
 pub mod sky;
 mod space;
+pub mod surface;
 mod sweep;
 mod tile;
 pub mod tonemap;
@@ -568,7 +569,15 @@ fn aov_names(settings: &RenderSettings, lights: &[Light]) -> Outcome<Vec<String>
         for (i, light) in lights.iter().enumerate() {
             let layer = light.aov_name(i);
             if layers.contains(&layer)
-                || ["depth", "transmittance", "emission"].contains(&layer.as_str())
+                || [
+                    "depth",
+                    "transmittance",
+                    "emission",
+                    "position",
+                    "normal",
+                    "forward",
+                ]
+                .contains(&layer.as_str())
             {
                 return Err(Failure::new(format!(
                     "two AOV layers are called '{layer}' (light {i} and an earlier light or AOV)"
@@ -581,5 +590,6 @@ fn aov_names(settings: &RenderSettings, lights: &[Light]) -> Outcome<Vec<String>
             layers.push(layer);
         }
     }
+    names.extend(surface::channel_names(a));
     Ok(names)
 }

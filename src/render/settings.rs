@@ -120,6 +120,57 @@ pub struct Aovs {
     /// `variance.R/G/B` (path tracer only): the variance of each pixel's mean colour, the
     /// sample variance of its `spp` path estimates divided by `spp`.
     pub variance: bool,
+    /// `position.X/Y/Z`, `normal.X/Y/Z`, `forward.u/v` (march only): where the visible medium
+    /// lies, which way its density falls and how it moves on screen (`render::surface`).
+    pub position: bool,
+    pub normal: bool,
+    pub motion: bool,
+}
+
+impl Aovs {
+    /// The AOVs named in `aovs = {...}`.
+    pub fn parse(names: &[String]) -> Outcome<Aovs> {
+        let mut aovs = Aovs::default();
+        for name in names {
+            let on = match name.as_str() {
+                "depth" => &mut aovs.depth,
+                "transmittance" => &mut aovs.transmittance,
+                "emission" => &mut aovs.emission,
+                "lights" => &mut aovs.lights,
+                "variance" => &mut aovs.variance,
+                "position" => &mut aovs.position,
+                "normal" => &mut aovs.normal,
+                "motion" => &mut aovs.motion,
+                other => {
+                    return Err(Failure::new(format!("unknown AOV \"{other}\""))
+                        .with_help(format!("the AOVs are {}", quoted_list(Aovs::NAMES))));
+                }
+            };
+            *on = true;
+        }
+        Ok(aovs)
+    }
+
+    /// Every AOV's name, as `aovs = {...}` takes it.
+    pub const NAMES: &[&str] = &[
+        "depth",
+        "transmittance",
+        "emission",
+        "lights",
+        "variance",
+        "position",
+        "normal",
+        "motion",
+    ];
+}
+
+/// `"a", "b" and "c"`.
+fn quoted_list(names: &[&str]) -> String {
+    let quoted: Vec<String> = names.iter().map(|n| format!("\"{n}\"")).collect();
+    match quoted.split_last() {
+        Some((last, rest)) if !rest.is_empty() => format!("{} and {last}", rest.join(", ")),
+        _ => quoted.join(""),
+    }
 }
 
 /// Everything a render needs besides the scene.
@@ -433,11 +484,13 @@ impl RenderSettings {
                         "the path tracer takes no steps: leave out adaptive",
                     ),
                     (
-                        "the depth, transmittance, emission and lights AOVs",
+                        "the depth, transmittance, emission, lights, position, normal and motion \
+                         AOVs",
                         self.aovs.depth
                             || self.aovs.transmittance
                             || self.aovs.emission
-                            || self.aovs.lights,
+                            || self.aovs.lights
+                            || super::surface::Surface::wanted(&self.aovs),
                         "the path tracer writes the variance AOV",
                     ),
                 ];

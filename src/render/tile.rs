@@ -11,6 +11,7 @@ use super::camera::jitter;
 use super::deep::{DeepCurves, DeepSample, curve_points};
 use super::march::Frame;
 use super::space::{BrickWalk, clip_to_box};
+use super::surface::Surface;
 use glam::DVec3;
 
 /// Counts for `--profile` and tests.
@@ -118,6 +119,8 @@ pub struct Rays {
     pub undo_lit: Vec<DVec3>,
     /// Deep output only: each ray's colour and transmittance by depth.
     pub deep: Option<DeepCurves>,
+    /// The position, normal and motion AOVs only: their sums per ray.
+    pub surface: Option<Surface>,
 }
 
 impl Rays {
@@ -133,6 +136,10 @@ impl Rays {
             emitted: self.emitted[r],
             depth_weighted: self.depth_weighted[r],
             opacity: self.opacity[r],
+            surface: self
+                .surface
+                .as_ref()
+                .map_or_else(Default::default, |s| s.sums(r)),
         };
         let lit = r * lights..(r + 1) * lights;
         self.undo_lit[lit.clone()].copy_from_slice(&self.lit[lit]);
@@ -148,6 +155,9 @@ impl Rays {
         self.emitted[r] = u.emitted;
         self.depth_weighted[r] = u.depth_weighted;
         self.opacity[r] = u.opacity;
+        if let Some(surface) = self.surface.as_mut() {
+            surface.restore(r, u.surface);
+        }
         let lit = r * lights..(r + 1) * lights;
         self.lit[lit.clone()].copy_from_slice(&self.undo_lit[lit]);
         self.undo[r].length = 0.0;
@@ -219,6 +229,8 @@ impl Rays {
             reset(&mut r.undo, n, Snapshot::default());
             reset(&mut r.undo_lit, n * lights, DVec3::ZERO);
         }
+        r.surface = Surface::wanted(&s.aovs)
+            .then(|| Surface::new(s.aovs, frame.camera, s.width, s.height, n));
         match s.deep {
             Some(most) => {
                 let curves = r.deep.get_or_insert_with(DeepCurves::default);
@@ -299,6 +311,10 @@ impl Rays {
                     let bad = &mut stats.bad_pixels;
                     out.extend([channel(l.x, bad), channel(l.y, bad), channel(l.z, bad)]);
                 }
+            }
+            if let Some(surface) = &rays.surface {
+                let opacity: f64 = rays.opacity[range.clone()].iter().sum();
+                surface.pixel(range.clone(), opacity, &mut out);
             }
         }
         let (deep_counts, deep_samples) = match (&rays.deep, frame.settings.deep) {

@@ -233,6 +233,12 @@ impl RenderOptions {
             return Err(Failure::new("shutter and shutterposition need a velocity")
                 .with_help("pass velocity = the medium's velocity field (world units per frame)"));
         }
+        if !self.motion && self.settings.aovs.motion {
+            return Err(Failure::new(
+                "the motion AOV is the medium's motion on screen, and this render has no velocity",
+            )
+            .with_help("pass velocity = the medium's velocity field (world units per frame)"));
+        }
         // The march's sky, bounces and grid size all belong to its indirect grid: a control
         // that would silently do nothing is refused.
         let grid_controls = ["sky", "bounces", "indirectcells", "indirectpaths"];

@@ -69,26 +69,9 @@ fn indirect_size(o: &mut RenderOptions, v: &Setting, cells: bool) -> Outcome<()>
 }
 
 fn aovs(o: &mut RenderOptions, v: &Setting) -> Outcome<()> {
-    let Setting::Strings(names) = v else {
-        return Ok(());
-    };
-    let mut aovs = Aovs::default();
-    for name in names {
-        match name.as_str() {
-            "depth" => aovs.depth = true,
-            "transmittance" => aovs.transmittance = true,
-            "emission" => aovs.emission = true,
-            "lights" => aovs.lights = true,
-            "variance" => aovs.variance = true,
-            other => {
-                return Err(Failure::new(format!("unknown AOV \"{other}\"")).with_help(
-                    "the AOVs are \"depth\", \"transmittance\", \"emission\", \"lights\" \
-                     and, with integrator = \"path\", \"variance\"",
-                ));
-            }
-        }
+    if let Setting::Strings(names) = v {
+        o.settings.aovs = Aovs::parse(names)?;
     }
-    o.settings.aovs = aovs;
     Ok(())
 }
 
@@ -385,10 +368,7 @@ pub const KEYWORDS: &[Keyword] = &[
         name: "aovs",
         kind: KeywordType::Strings,
         default: "none",
-        choices: Some((
-            "AOV",
-            &["depth", "transmittance", "emission", "lights", "variance"],
-        )),
+        choices: Some(("AOV", Aovs::NAMES)),
         aliases: &[],
         doc: "extra image channels",
         apply: Some(aovs),

@@ -227,7 +227,7 @@ fn aovs_add_up_to_the_beauty() {
             transmittance: true,
             emission: true,
             lights: true,
-            variance: false,
+            ..Aovs::default()
         },
         ..small(5, 5)
     };

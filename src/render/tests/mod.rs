@@ -1,10 +1,12 @@
-//! Renders of scenes with closed-form answers (`closed_forms`, `background`), the properties
-//! every render must have (`properties`), and inputs the march cannot use (`bad_inputs`).
+//! Renders of scenes with closed-form answers (`closed_forms`, `background`, `surface`), the
+//! properties every render must have (`properties`), and inputs the march cannot use
+//! (`bad_inputs`).
 
 mod background;
 mod bad_inputs;
 mod closed_forms;
 mod properties;
+mod surface;
 
 use super::*;
 use crate::sample::{Aabb, FnField};

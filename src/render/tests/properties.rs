@@ -179,7 +179,9 @@ fn images_are_bit_identical_for_any_thread_count() {
             transmittance: true,
             emission: true,
             lights: true,
-            variance: false,
+            position: true,
+            normal: true,
+            ..Aovs::default()
         },
         ..small(37, 21)
     };
