@@ -119,26 +119,6 @@ impl Diagnostic {
     }
 }
 
-/// `1234567` as `1,234,567`: counts in messages are written this way, so a large one reads
-/// at a glance.
-pub fn grouped(n: u64) -> String {
-    let digits = n.to_string();
-    let mut out = String::with_capacity(digits.len() + digits.len() / 3);
-    for (i, c) in digits.chars().enumerate() {
-        if i > 0 && (digits.len() - i).is_multiple_of(3) {
-            out.push(',');
-        }
-        out.push(c);
-    }
-    out
-}
-
-/// A vector in messages as felt prints one, `(0.5, 1e155, -3.0)`: each component in its
-/// shortest round-trip form, so huge and tiny values stay short.
-pub fn vector_text(v: glam::DVec3) -> String {
-    format!("({:?}, {:?}, {:?})", v.x, v.y, v.z)
-}
-
 /// A source line longer than this many bytes is shown cut down to windows around the label.
 const LONG_LINE_BYTES: usize = 1000;
 /// Bytes of a long line kept on either side of the label's start and of its end.

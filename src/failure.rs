@@ -7,6 +7,9 @@
 //! made with `Failure::internal`: an invariant of felt's own code that did not hold, which no
 //! script should be able to cause. Those are a distinct kind, so the `felt` command exits 70
 //! with a line asking for a report instead of blaming the script with exit 1.
+//!
+//! The words of a failure live here too: counts grouped in thousands and vectors as felt
+//! prints them, so every layer that reports a failure writes numbers the same way.
 
 use std::fmt;
 
@@ -69,6 +72,26 @@ macro_rules! fail {
     ($($arg:tt)*) => {
         return Err($crate::failure::Failure::new(format!($($arg)*)))
     };
+}
+
+/// `1234567` as `1,234,567`: counts in messages are written this way, so a large one reads
+/// at a glance.
+pub fn grouped(n: u64) -> String {
+    let digits = n.to_string();
+    let mut out = String::with_capacity(digits.len() + digits.len() / 3);
+    for (i, c) in digits.chars().enumerate() {
+        if i > 0 && (digits.len() - i).is_multiple_of(3) {
+            out.push(',');
+        }
+        out.push(c);
+    }
+    out
+}
+
+/// A vector in messages as felt prints one, `(0.5, 1e155, -3.0)`: each component in its
+/// shortest round-trip form, so huge and tiny values stay short.
+pub fn vector_text(v: glam::DVec3) -> String {
+    format!("({:?}, {:?}, {:?})", v.x, v.y, v.z)
 }
 
 #[cfg(test)]

@@ -6,6 +6,13 @@
 //! graphs) → `field` (hash-consed graphs compiled into batch programs) and `grid` (domains,
 //! caches, files) → `render` (raymarcher, image writers). Downstream modules never reach back
 //! upstream: the raymarcher knows fields, not syntax; the evaluator knows nodes, not statements.
+//!
+//! So a module names only its own layer and those below it. From the top: the command (`cli`,
+//! `repl`, `doc`, `lsp`, `study`, `farm`, `sequence`); `session`; `interp`; `check`; `syntax`
+//! and `diagnostic`; the producers and `render`; `field` and `grid`; `sample`, the vocabulary
+//! they share; `engine` and `budget`; files and signals (`output`, `input`, `frames`,
+//! `interrupt`, `usd`); `failure`. `tests/layers.rs` holds that order and fails on an import
+//! that runs up it, besides the few it lists with their reasons.
 
 // Block kernels index several parallel lane arrays with one counter; iterator chains over
 // zipped slices would hide that and vectorise no better.

@@ -9,7 +9,7 @@
 //! the grid has cubic voxels; a length that is not a multiple of the cell moves the far faces
 //! by up to half a cell, which `length_change` reports so the script can be warned.
 
-use crate::diagnostic::vector_text;
+use crate::failure::vector_text;
 use crate::failure::{Failure, Outcome};
 use crate::sample::Aabb;
 use glam::{DMat3, DQuat, DVec3};

@@ -9,7 +9,7 @@
 //! message, since a cache domain cannot represent them.
 
 use crate::budget::human as human_bytes;
-use crate::diagnostic::grouped;
+use crate::failure::grouped;
 use crate::failure::{Failure, Outcome};
 use crate::grid::cache::{Cache, SparseBuilder};
 use crate::grid::domain::{Domain, memory_limit};

@@ -7,7 +7,7 @@
 //! the top row, and a sample at raster offset `(jx, jy)` inside it is the ray through that point;
 //! one sample per pixel goes through the pixel's centre.
 
-use crate::diagnostic::vector_text;
+use crate::failure::vector_text;
 use crate::failure::{Failure, Outcome};
 use glam::DVec3;
 

@@ -59,8 +59,8 @@ pub use settings::{Adaptive, Aovs, Integrator, MultiScatter, RenderSettings, Sha
 pub use tile::{InputCounts, MarchStats};
 pub use transmittance::{TransmissivityMethod, transmissivity};
 
-use crate::diagnostic::{grouped, vector_text};
 use crate::failure::{Failure, Outcome};
+use crate::failure::{grouped, vector_text};
 use crate::sample::{Aabb, FieldSampler};
 use glam::DVec3;
 use lighting::Illumination;

@@ -2,7 +2,8 @@
 //! Each only builds graph nodes, except `probe` and `stats`, which are outputs: they compile
 //! the graph they need and evaluate it.
 
-use crate::diagnostic::{Diagnostic, Stage, grouped};
+use crate::diagnostic::{Diagnostic, Stage};
+use crate::failure::grouped;
 use crate::failure::{Failure, Outcome};
 use crate::field::{self, Field, FieldValue};
 use crate::interp::Interpreter;

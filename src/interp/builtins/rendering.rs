@@ -260,7 +260,7 @@ fn run_render(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
                 interp.call_span,
                 format!(
                     "{} sample{} above 65504, the largest half float, written as 65504",
-                    crate::diagnostic::grouped(clamped),
+                    crate::failure::grouped(clamped),
                     if clamped == 1 { "" } else { "s" }
                 ),
             )
