@@ -301,16 +301,7 @@ fn deep_files_are_bit_identical_for_any_thread_count() {
     )
     .unwrap();
     let run = |threads: &str| {
-        let out = Command::new(env!("CARGO_BIN_EXE_felt"))
-            .current_dir(dir.path())
-            .args(["run", "threads.felt", "--threads", threads])
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        common::felt_succeeds(dir.path(), &["run", "threads.felt", "--threads", threads]);
         std::fs::read(dir.path().join("deep.exr")).unwrap()
     };
     assert!(

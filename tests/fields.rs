@@ -5,7 +5,6 @@
 mod common;
 
 use std::path::Path;
-use std::process::Command;
 
 use common::numbers;
 
@@ -158,16 +157,7 @@ fn results_are_bit_identical_for_any_thread_count() {
     )
     .unwrap();
     let run = |threads: &str| {
-        let out = Command::new(env!("CARGO_BIN_EXE_felt"))
-            .current_dir(dir.path())
-            .args(["run", "threads.felt", "--threads", threads])
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        let out = common::felt_succeeds(dir.path(), &["run", "threads.felt", "--threads", threads]);
         let vdb = std::fs::read(dir.path().join("out.vdb")).unwrap();
         (out.stdout, vdb)
     };

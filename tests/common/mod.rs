@@ -97,3 +97,20 @@ pub fn numbers(line: &str) -> Vec<f64> {
         .map(|t| t.parse().unwrap_or_else(|_| panic!("not a number: {t}")))
         .collect()
 }
+
+/// Runs the `felt` binary with `args` in `dir`, failing the test with felt's stderr unless it
+/// succeeds; the output, for what it printed.
+pub fn felt_succeeds(dir: &Path, args: &[&str]) -> std::process::Output {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_felt"))
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "felt {}: {}",
+        args.join(" "),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}

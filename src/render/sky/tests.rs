@@ -85,10 +85,14 @@ fn sampled_integral(sky: &Sky, n: usize, seed: u64) -> (DVec3, DVec3) {
     )
 }
 
-/// `Σ pdf(ω)·Δω` over a fine lat-long grid: the integral of the density over the sphere.
-fn pdf_total(sky: &Sky, width: usize) -> f64 {
+/// `Σ f(ω)·Δω` by the midpoint rule over a `width × width/2` lat-long grid: the integral of
+/// `f` over the sphere.
+fn over_sphere<T: std::ops::AddAssign + std::ops::Mul<f64, Output = T> + Default>(
+    width: usize,
+    f: impl Fn(DVec3) -> T,
+) -> T {
     let height = width / 2;
-    let mut total = 0.0;
+    let mut total = T::default();
     for j in 0..height {
         let (t0, t1) = (
             PI * j as f64 / height as f64,
@@ -100,10 +104,15 @@ fn pdf_total(sky: &Sky, width: usize) -> f64 {
                 (i as f64 + 0.5) / width as f64,
                 (j as f64 + 0.5) / height as f64,
             );
-            total += sky.pdf(d) * solid;
+            total += f(d) * solid;
         }
     }
     total
+}
+
+/// `Σ pdf(ω)·Δω` over a fine lat-long grid: the integral of the density over the sphere.
+fn pdf_total(sky: &Sky, width: usize) -> f64 {
+    over_sphere(width, |d| sky.pdf(d))
 }
 
 #[test]
@@ -292,22 +301,7 @@ fn the_suns_strength_is_daylight() {
 fn daylight_sampling_is_unbiased() {
     let sky = Sky::Physical(Arc::new(PhysicalSky::new(sun_at(25.0), 3.0, 1.0).unwrap()));
     // The integral by the midpoint rule over a grid eight times finer than the sampler's.
-    let (width, height) = (2048, 1024);
-    let mut expected = DVec3::ZERO;
-    for j in 0..height {
-        let (t0, t1) = (
-            PI * j as f64 / height as f64,
-            PI * (j + 1) as f64 / height as f64,
-        );
-        let solid = 2.0 * PI / width as f64 * (t0.cos() - t1.cos());
-        for i in 0..width {
-            let d = latlong::direction(
-                (i as f64 + 0.5) / width as f64,
-                (j as f64 + 0.5) / height as f64,
-            );
-            expected += sky.radiance(d) * solid;
-        }
-    }
+    let expected = over_sphere(2048, |d| sky.radiance(d));
     let (mean, error) = sampled_integral(&sky, 200_000, 11);
     for c in 0..3 {
         assert!(
