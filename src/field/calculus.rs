@@ -41,8 +41,8 @@ pub fn gradients_then_divergence(roots: &[NodeRef]) -> Outcome<Vec<[NodeRef; 3]>
 /// `∂v₀/∂x + ∂v₁/∂y + ∂v₂/∂z`, differentiating each component only along its own axis: the
 /// six off-diagonal terms of the Jacobian are never built. Each term is the node the full
 /// Jacobian would hold, and the terms are added in the same order as its trace, so the value
-/// is bit for bit that of `trace(grad(v))`, made with a third of the nodes where the
-/// components do not share their graphs.
+/// is bit for bit that of `trace(grad(v))`. Nodes the components share are still taken
+/// along every axis, so nested Laplacians of noise make half the nodes, not a third.
 pub fn divergence(v: &[NodeRef]) -> Outcome<NodeRef> {
     let terms: Outcome<Vec<NodeRef>> = (0..3)
         .map(|axis| {

@@ -18,6 +18,8 @@
 
 mod advection;
 mod calculus;
+#[cfg(test)]
+mod derivative_tests;
 pub mod eval;
 pub mod interval;
 pub mod linalg;

@@ -270,7 +270,7 @@ impl Interpreter {
     /// node table as a whole is that large, and then not again until the table has doubled.
     fn check_graph_size(&mut self, value: &Value, span: Span) {
         let table = crate::field::node::table_len();
-        if self.graph_warned || table < self.graph_check_at.min(self.graph_warning_nodes) {
+        if self.graph_warned || table < self.graph_check_at.max(self.graph_warning_nodes) {
             return;
         }
         self.graph_check_at = table * 2;
