@@ -287,8 +287,9 @@ impl Interpreter {
                 format!("this field's graph has grown to {nodes} nodes; every value of it evaluates all of them"),
             )
             .with_help(
-                "a field advected by itself step after step doubles each time: sample it into a cache \
-                 (cachewrite/cacheread) or project it with fftdivfree every step",
+                "a field advected by itself step after step doubles each time, and each nested \
+                 derivative multiplies it: sample it into a cache (cachewrite/cacheread), or \
+                 project an advected velocity with fftdivfree every step",
             ),
         );
     }
