@@ -6,6 +6,11 @@
 //! (`compose`, `advect`, the warps) is in `substitution`: the composed field is an ordinary
 //! graph, so differentiating it again is exact too.
 //!
+//! A pass differentiates along only the axes it is asked for: `divergence` (and so
+//! `laplacian`, the divergence of the gradient) takes each component along its own axis
+//! alone, so a tower of nested Laplacians never builds the six off-diagonal second
+//! derivatives that the trace of the full Jacobian would drop.
+//!
 //! Two decisions: where a derivative has a removable 0/0 (the gradient of `sqrt(u)` where `u`
 //! and its derivative vanish together, as for `|x|` at the origin), the rule uses the guarded
 //! division, which gives 0 there instead of NaN. And grid reads are differentiated through the
@@ -22,19 +27,58 @@ use std::collections::HashMap;
 
 /// Partial derivatives `[d/dx, d/dy, d/dz]` of each root.
 pub fn gradients(roots: &[NodeRef]) -> Outcome<Vec<[NodeRef; 3]>> {
-    gradients_then(roots, 0)
+    partials(roots, [0, 1, 2], Later::Nothing)
 }
 
-/// `gradients`, when `later` more derivative passes will follow over its result (a
-/// `laplacian` differentiates twice): the memory budget is checked against the growth of all
-/// of them, projected from the rate of this one (`node::check_projected_growth`), so a tower
-/// of derivatives that cannot fit stops before its last level is half built.
-pub fn gradients_then(roots: &[NodeRef], later: u32) -> Outcome<Vec<[NodeRef; 3]>> {
+/// `gradients`, when the divergence of the result will follow (a `laplacian` is the
+/// divergence of the gradient): the memory budget is checked against the growth of both, projected
+/// from the rate of this pass (`node::check_projected_growth`), so a tower of derivatives
+/// that cannot fit stops before its last level is half built.
+pub fn gradients_then_divergence(roots: &[NodeRef]) -> Outcome<Vec<[NodeRef; 3]>> {
+    partials(roots, [0, 1, 2], Later::Divergence)
+}
+
+/// `∂v₀/∂x + ∂v₁/∂y + ∂v₂/∂z`, differentiating each component only along its own axis: the
+/// six off-diagonal terms of the Jacobian are never built. Each term is the node the full
+/// Jacobian would hold, and the terms are added in the same order as its trace, so the value
+/// is bit for bit that of `trace(grad(v))`. Nodes the components share are still taken
+/// along every axis, so nested Laplacians of noise make half the nodes, not a third.
+pub fn divergence(v: &[NodeRef]) -> Outcome<NodeRef> {
+    let terms: Outcome<Vec<NodeRef>> = (0..3)
+        .map(|axis| {
+            let [term] =
+                partials(std::slice::from_ref(&v[axis]), [axis], Later::Nothing)?[0].clone();
+            Ok(term)
+        })
+        .collect();
+    Ok(node::sum(terms?))
+}
+
+/// The passes that will follow a derivative pass over what it returns, for the projection of
+/// its growth against the memory budget.
+#[derive(Clone, Copy)]
+enum Later {
+    Nothing,
+    Divergence,
+}
+
+/// Partial derivatives of each root along `axes` (0 x, 1 y, 2 z), in that order: the
+/// forward-mode rules applied to every node reachable from the roots, along those axes only.
+fn partials<const A: usize>(
+    roots: &[NodeRef],
+    axes: [usize; A],
+    later: Later,
+) -> Outcome<Vec<[NodeRef; A]>> {
     let order = node::postorder(roots);
-    let mut d: HashMap<u64, [NodeRef; 3]> = HashMap::with_capacity(order.len());
+    let mut d: IdMap<[NodeRef; A]> =
+        IdMap::with_capacity_and_hasher(order.len(), Default::default());
     // Kernel nodes: the derivative of each output, per axis.
-    let mut kernel_d: HashMap<u64, Vec<[NodeRef; 3]>> = HashMap::new();
-    let zero = || node::constant(0.0);
+    let mut kernel_d: IdMap<Vec<[NodeRef; A]>> = IdMap::default();
+    let zero = node::constant(0.0);
+    let zeros = || std::array::from_fn(|_| zero.clone());
+    let unit = |axis: usize| {
+        std::array::from_fn(|j| node::constant(if axes[j] == axis { 1.0 } else { 0.0 }))
+    };
     let made_before = node::nodes_made();
     for (i, n) in order.iter().enumerate() {
         // Derivatives of derivatives can grow a graph severalfold per level: stop at the
@@ -42,25 +86,26 @@ pub fn gradients_then(roots: &[NodeRef], later: u32) -> Outcome<Vec<[NodeRef; 3]
         // the pass will not fit rather than at its end.
         if i % 1024 == 0 {
             node::check_graph_memory()?;
-            node::check_projected_growth(node::nodes_made() - made_before, i, order.len(), later)?;
+            let made = node::nodes_made() - made_before;
+            node::check_projected_growth(made, i, order.len(), matches!(later, Later::Divergence))?;
         }
-        let grad: [NodeRef; 3] = match &n.op {
-            Op::Const(_) => [zero(), zero(), zero()],
-            Op::X => [node::constant(1.0), zero(), zero()],
-            Op::Y => [zero(), node::constant(1.0), zero()],
-            Op::Z => [zero(), zero(), node::constant(1.0)],
+        let grad: [NodeRef; A] = match &n.op {
+            Op::Const(_) => zeros(),
+            Op::X => unit(0),
+            Op::Y => unit(1),
+            Op::Z => unit(2),
             Op::Unary(m, a) => {
                 let factor = unary_factor(*m, a);
                 let da = &d[&a.id];
                 std::array::from_fn(|j| match &factor {
-                    Factor::Zero => zero(),
+                    Factor::Zero => zero.clone(),
                     Factor::One => da[j].clone(),
                     Factor::Times(f) => node::mul(f.clone(), da[j].clone()),
                     Factor::GuardedOver(f) => node::guarded_div(da[j].clone(), f.clone()),
                 })
             }
             Op::Binary(b, x, y) => {
-                let (dx, dy) = (d[&x.id].clone(), d[&y.id].clone());
+                let (dx, dy) = (&d[&x.id], &d[&y.id]);
                 std::array::from_fn(|j| binary_rule(*b, n, x, y, &dx[j], &dy[j]))
             }
             Op::Select(c, a, b) => {
@@ -71,7 +116,7 @@ pub fn gradients_then(roots: &[NodeRef], later: u32) -> Outcome<Vec<[NodeRef; 3]
                 let outs = kernel_rule(kernel, n, args, &d)?;
                 kernel_d.insert(n.id, outs);
                 // A kernel node has no value of its own; its outputs carry the derivatives.
-                [zero(), zero(), zero()]
+                zeros()
             }
             Op::Output(k, i) => match kernel_d.get(&k.id).and_then(|v| v.get(*i as usize)) {
                 Some(g) => g.clone(),
@@ -82,6 +127,10 @@ pub fn gradients_then(roots: &[NodeRef], later: u32) -> Outcome<Vec<[NodeRef; 3]
     }
     Ok(roots.iter().map(|r| d[&r.id].clone()).collect())
 }
+
+/// Working maps keyed by node id: ids are small sequential integers, so a fast hasher
+/// serves (nothing iterates these maps).
+type IdMap<V> = HashMap<u64, V, node::IdHasher>;
 
 fn third_derivative_error(k: &NodeRef) -> Failure {
     Failure::new(format!("cannot differentiate an output of {k:?}"))
@@ -179,14 +228,14 @@ fn binary_rule(
     }
 }
 
-/// Derivatives of every output of a kernel node along x, y, z.
-fn kernel_rule(
+/// Derivatives of every output of a kernel node along the pass's axes.
+fn kernel_rule<const A: usize>(
     kernel: &Kernel,
     n: &NodeRef,
     args: &[NodeRef],
-    d: &HashMap<u64, [NodeRef; 3]>,
-) -> Outcome<Vec<[NodeRef; 3]>> {
-    let chain = |partial: &dyn Fn(usize) -> NodeRef| -> [NodeRef; 3] {
+    d: &IdMap<[NodeRef; A]>,
+) -> Outcome<Vec<[NodeRef; A]>> {
+    let chain = |partial: &dyn Fn(usize) -> NodeRef| -> [NodeRef; A] {
         // d out / d x_j = sum_k d out / d arg_k * d arg_k / d x_j
         std::array::from_fn(|j| {
             node::sum((0..args.len()).map(|k| node::mul(partial(k), d[&args[k].id][j].clone())))

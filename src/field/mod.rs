@@ -18,6 +18,8 @@
 
 mod advection;
 mod calculus;
+#[cfg(test)]
+mod derivative_tests;
 pub mod eval;
 pub mod interval;
 pub mod linalg;
@@ -492,9 +494,10 @@ pub fn grad(f: &Field) -> Outcome<Field> {
     }
 }
 
+/// The trace of the Jacobian, built from its diagonal alone (`calculus::divergence`).
 pub fn div(v: &Field) -> Outcome<Field> {
-    let j = grad(&Field::vector_checked(v, "div")?)?;
-    j.trace()
+    let v = Field::vector_checked(v, "div")?;
+    Ok(Field::scalar(calculus::divergence(&v.components)?))
 }
 
 pub fn curl(v: &Field) -> Outcome<Field> {
@@ -511,9 +514,9 @@ pub fn curl(v: &Field) -> Outcome<Field> {
 pub fn laplacian(f: &Field) -> Outcome<Field> {
     match f.kind {
         FieldKind::Scalar => {
-            // The gradient of the gradient: the first pass answers for the budget of both.
-            let g = calculus::gradients_then(&f.components, 1)?;
-            div(&Field::vector(g[0].clone()))
+            // The divergence of the gradient: the first pass answers for the budget of both.
+            let g = calculus::gradients_then_divergence(&f.components)?;
+            Ok(Field::scalar(calculus::divergence(&g[0])?))
         }
         FieldKind::Vector => {
             let parts: Outcome<Vec<NodeRef>> = (0..3)

@@ -21,7 +21,7 @@ use intern::intern;
 use std::fmt;
 use std::sync::Arc;
 
-pub use intern::{check_graph_memory, check_projected_growth, nodes_made, table_len};
+pub use intern::{IdHasher, check_graph_memory, check_projected_growth, nodes_made, table_len};
 
 /// A shared scalar node.
 pub type NodeRef = Arc<Node>;
@@ -519,7 +519,7 @@ pub fn sum(terms: impl IntoIterator<Item = NodeRef>) -> NodeRef {
 /// All nodes reachable from `roots`, children before parents, each once. Iterative, so graphs
 /// thousands of nodes deep (long advection chains) do not exhaust the stack.
 pub fn postorder(roots: &[NodeRef]) -> Vec<NodeRef> {
-    let mut seen = std::collections::HashSet::new();
+    let mut seen = std::collections::HashSet::<u64, IdHasher>::default();
     let mut order = Vec::new();
     let mut stack: Vec<(NodeRef, bool)> = roots.iter().rev().map(|r| (r.clone(), false)).collect();
     while let Some((node, expanded)) = stack.pop() {

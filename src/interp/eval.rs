@@ -270,7 +270,7 @@ impl Interpreter {
     /// node table as a whole is that large, and then not again until the table has doubled.
     fn check_graph_size(&mut self, value: &Value, span: Span) {
         let table = crate::field::node::table_len();
-        if self.graph_warned || table < self.graph_check_at.min(self.graph_warning_nodes) {
+        if self.graph_warned || table < self.graph_check_at.max(self.graph_warning_nodes) {
             return;
         }
         self.graph_check_at = table * 2;
@@ -287,8 +287,9 @@ impl Interpreter {
                 format!("this field's graph has grown to {nodes} nodes; every value of it evaluates all of them"),
             )
             .with_help(
-                "a field advected by itself step after step doubles each time: sample it into a cache \
-                 (cachewrite/cacheread) or project it with fftdivfree every step",
+                "a field advected by itself step after step doubles each time, and each nested \
+                 derivative multiplies it: sample it into a cache (cachewrite/cacheread), or \
+                 project an advected velocity with fftdivfree every step",
             ),
         );
     }

@@ -122,7 +122,7 @@ impl Interpreter {
             warnings: Vec::new(),
             call_span: Span::default(),
             graph_warning_nodes: eval::GRAPH_WARNING_NODES,
-            graph_check_at: eval::GRAPH_WARNING_NODES,
+            graph_check_at: 0,
             graph_warned: false,
             written_caches: Vec::new(),
             map_watched: Vec::new(),

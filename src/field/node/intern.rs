@@ -13,54 +13,61 @@
 //! node whichever session built it (sessions may share graphs), the table holds only weak
 //! references so it keeps nothing of any session alive, and the memory graphs take is checked
 //! against the budget of the engine current where they are built (`check_graph_memory`).
+//!
+//! Building a tower of derivatives is mostly lookups in this table, so a key is made without
+//! a heap block (up to three children inline) and hashed with foldhash rather than SipHash:
+//! the keys are ids the process made itself, nothing an adversary chooses, and nothing
+//! iterates the table in an order that reaches output.
 
 use super::{Node, NodeRef, Op};
 use std::collections::HashMap;
 use std::collections::hash_map::Entry::{Occupied, Vacant};
-use std::hash::{Hash, Hasher};
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, LazyLock, Mutex, Weak};
 
-/// The identity of an operation on identified children.
+/// The hasher of maps keyed by node ids or by node keys (see the module's paragraph).
+pub type IdHasher = foldhash::fast::FixedState;
+
+/// The identity of an operation on identified children: up to three children's ids inline
+/// (every operation but a kernel of more arguments), the rest in `more`.
 #[derive(PartialEq, Eq, Hash)]
 struct Key {
     tag: u8,
     payload: u64,
-    children: Vec<u64>,
+    children: [u64; 3],
+    more: Box<[u64]>,
 }
 
 fn key_of(op: &Op) -> Key {
-    let ids = |v: &[&NodeRef]| v.iter().map(|n| n.id).collect::<Vec<_>>();
-    let (tag, payload, children) = match op {
+    let key = |tag: u8, payload: u64, ids: &[u64]| {
+        let mut children = [0; 3];
+        let inline = ids.len().min(3);
+        children[..inline].copy_from_slice(&ids[..inline]);
+        Key {
+            tag,
+            payload,
+            children,
+            more: ids[inline..].into(),
+        }
+    };
+    match op {
         // Constants are keyed by bits, so 0.0 and -0.0 stay distinct.
-        Op::Const(c) => (0, c.to_bits(), Vec::new()),
-        Op::X => (1, 0, Vec::new()),
-        Op::Y => (2, 0, Vec::new()),
-        Op::Z => (3, 0, Vec::new()),
-        Op::Unary(m, a) => (4, hash_of(m), ids(&[a])),
-        Op::Binary(b, x, y) => (5, hash_of(b), ids(&[x, y])),
-        Op::Select(c, a, b) => (6, 0, ids(&[c, a, b])),
+        Op::Const(c) => key(0, c.to_bits(), &[]),
+        Op::X => key(1, 0, &[]),
+        Op::Y => key(2, 0, &[]),
+        Op::Z => key(3, 0, &[]),
+        Op::Unary(m, a) => key(4, *m as u64, &[a.id]),
+        Op::Binary(b, x, y) => key(5, *b as u64, &[x.id, y.id]),
+        Op::Select(c, a, b) => key(6, 0, &[c.id, a.id, b.id]),
         Op::Kernel(k, args) => {
             let (t, p) = k.key();
-            (
-                7,
-                p ^ ((t as u64) << 56),
-                args.iter().map(|a| a.id).collect(),
-            )
+            // Ids start at 1, so the zeros that pad a kernel of fewer than three arguments
+            // name no node.
+            let ids: Vec<u64> = args.iter().map(|a| a.id).collect();
+            key(7, p ^ ((t as u64) << 56), &ids)
         }
-        Op::Output(k, i) => (8, *i as u64, ids(&[k])),
-    };
-    Key {
-        tag,
-        payload,
-        children,
+        Op::Output(k, i) => key(8, *i as u64, &[k.id]),
     }
-}
-
-fn hash_of<T: Hash>(t: &T) -> u64 {
-    let mut h = std::collections::hash_map::DefaultHasher::new();
-    t.hash(&mut h);
-    h.finish()
 }
 
 /// A node made through the table, and its id, kept after the node is dropped.
@@ -70,14 +77,14 @@ struct Entry {
 }
 
 struct Table {
-    nodes: HashMap<Key, Entry>,
+    nodes: HashMap<Key, Entry, IdHasher>,
     /// Size at which dead entries are next swept out.
     sweep_at: usize,
 }
 
 static TABLE: LazyLock<Mutex<Table>> = LazyLock::new(|| {
     Mutex::new(Table {
-        nodes: HashMap::new(),
+        nodes: HashMap::default(),
         sweep_at: 1 << 16,
     })
 });
@@ -86,7 +93,7 @@ static NEXT_ID: AtomicU64 = AtomicU64::new(1);
 static LENGTH: AtomicUsize = AtomicUsize::new(0);
 
 /// What one node costs in memory with its table entry: the node and its `Arc` counts, the
-/// key with its list of children (a heap block of its own), the entry and the map's own slot,
+/// key with its children inline, the entry and the map's own slot,
 /// each heap block with malloc's 16-byte header; and the 64 bytes a derivative's working
 /// maps take per node it visits. Measured against peak RSS: a tower of nested `laplacian`s
 /// under a 100 MiB budget peaked at 160 MiB above the process's baseline with 144 bytes
@@ -95,8 +102,6 @@ const NODE_BYTES: usize = std::mem::size_of::<Node>()
     + 2 * std::mem::size_of::<usize>()
     + 16
     + std::mem::size_of::<Key>()
-    + 3 * std::mem::size_of::<u64>()
-    + 16
     + std::mem::size_of::<Entry>()
     + 16
     + 64;
@@ -178,12 +183,14 @@ pub fn nodes_made() -> u64 {
 }
 
 /// A derivative pass over a graph of `total` nodes that has visited `done` of them and made
-/// `made` nodes meanwhile, with `later` passes still to come over what it returns (a
-/// `laplacian` is a gradient of a gradient): refused now when, going on at that rate, the
-/// nodes it and the later passes would make do not fit in what is left of the budget.
+/// `made` nodes meanwhile, followed or not by the divergence of what it returns (a
+/// `laplacian` is the divergence of a gradient): refused now when, going on at that rate,
+/// the nodes it and the divergence would make do not fit in what is left of the budget.
 ///
-/// Each pass multiplies the graph by about the same factor `1 + r` (a pass makes `r` new nodes
-/// per node it visits), so the passes together make `total·((1 + r)^(later + 1) − 1)`. A tower
+/// A pass along three axes makes `r` new nodes per node it visits, `r·total` in all. The
+/// divergence that follows takes each of the three results along its own axis only: it
+/// visits about `total·(1 + r/3)` nodes per component (the graph and that component's share
+/// of the new nodes) at a third of the rate, so it makes about `r·total·(1 + r/3)`. A tower
 /// of nested derivatives grows severalfold per level, and building the last level only to
 /// find at its end that it does not fit took most of a minute under a budget of gigabytes.
 /// The rate is measured only after a sixteenth of the pass (and 16,384 nodes), so a small or
@@ -192,13 +199,18 @@ pub fn check_projected_growth(
     made: u64,
     done: usize,
     total: usize,
-    later: u32,
+    then_divergence: bool,
 ) -> crate::failure::Outcome<()> {
     if done < 16_384 || done < total / 16 || done >= total {
         return Ok(());
     }
     let rate = made as f64 / done as f64;
-    let all = total as f64 * ((1.0 + rate).powi(later as i32 + 1) - 1.0);
+    let divergence = if then_divergence {
+        rate * total as f64 * (1.0 + rate / 3.0)
+    } else {
+        0.0
+    };
+    let all = rate * total as f64 + divergence;
     let projected = (all - made as f64).max(0.0).round();
     check_nodes(projected, |live| {
         format!(
