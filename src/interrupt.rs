@@ -15,7 +15,7 @@
 
 use std::process::{Child, Command};
 use std::sync::{Mutex, MutexGuard};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// Asks the evaluation running on the current engine to stop.
 pub fn request() {
@@ -44,8 +44,10 @@ static CHILDREN: Mutex<Children> = Mutex::new(Children {
     stopping: false,
 });
 
-/// How long a stopped child has to remove its temporaries and exit before it is killed.
-const GRACE: Duration = Duration::from_secs(20);
+/// How often a stopped child's group is polled, and how many polls it has to remove its
+/// temporaries and exit before it is killed (2,000 polls 10 ms apart: about 20 s).
+const POLL: Duration = Duration::from_millis(10);
+const GRACE_POLLS: u32 = 2_000;
 
 fn children() -> MutexGuard<'static, Children> {
     CHILDREN.lock().unwrap_or_else(|e| e.into_inner())
@@ -91,7 +93,8 @@ pub fn child_done() {
 
 /// Stops the child started by `spawn_child` and its whole process group (from a Ctrl-C or
 /// SIGTERM handler, before the process exits): SIGTERM first, SIGKILL for what is left after
-/// `GRACE`; returns once no process of the group is left. No child starts after this.
+/// `GRACE_POLLS` polls; returns once no process of the group is left. No child starts after
+/// this.
 pub fn stop_children() {
     let group = {
         let mut record = children();
@@ -102,9 +105,9 @@ pub fn stop_children() {
     if group != 0 {
         let group = group as libc::pid_t;
         signal_group(group, libc::SIGTERM);
-        if !wait_for_group(group, GRACE) {
+        if !wait_for_group(group, GRACE_POLLS) {
             signal_group(group, libc::SIGKILL);
-            wait_for_group(group, GRACE);
+            wait_for_group(group, GRACE_POLLS);
         }
     }
 }
@@ -119,20 +122,17 @@ fn signal_group(group: libc::pid_t, signal: libc::c_int) {
     }
 }
 
-/// Whether the process group became empty within `limit`. The child leader leaves it when
-/// the thread that started it reaps it; its own children when they exit.
+/// Whether the process group became empty within `polls` polls. The child leader leaves it
+/// when the thread that started it reaps it; its own children when they exit.
 #[cfg(unix)]
-fn wait_for_group(group: libc::pid_t, limit: Duration) -> bool {
-    let started = Instant::now();
-    loop {
+fn wait_for_group(group: libc::pid_t, polls: u32) -> bool {
+    for _ in 0..polls {
         // SAFETY: signal 0 only asks whether the group has a member; no memory effects.
         let alive = unsafe { libc::kill(-group, 0) } == 0;
         if !alive {
             return true;
         }
-        if started.elapsed() > limit {
-            return false;
-        }
-        std::thread::sleep(Duration::from_millis(10));
+        std::thread::sleep(POLL);
     }
+    false
 }

@@ -1,57 +1,50 @@
 //! Scripts that are long without being deep: thousands of terms in one sum, thousands of
 //! `else if`s, thousands of advection steps. Each must check and run, on an ordinary thread's
-//! stack, in time that grows linearly with its length; only real nesting has a limit.
+//! stack; only real nesting has a limit. (That the work is linear in the length is a matter of
+//! speed, measured by benchmarks, not asserted here: a loaded machine would make it flaky.)
 
 mod common;
 
-use std::time::{Duration, Instant};
-
-/// Runs `source` and returns its printed lines, failing on any diagnostic or on a run longer
-/// than `limit` (generous: each of these takes well under a second when the work is linear).
-fn run_within(name: &str, source: &str, limit: Duration) -> Vec<String> {
-    let started = Instant::now();
+/// Runs `source` and returns its printed lines, failing on any diagnostic.
+fn run_clean(name: &str, source: &str) -> Vec<String> {
     let outcome = common::run_source(name, source);
-    let elapsed = started.elapsed();
     assert!(outcome.ok, "{name}: {}", outcome.rendered);
     assert!(
         outcome.diagnostics.is_empty(),
         "{name}: {}",
         outcome.rendered
     );
-    assert!(elapsed < limit, "{name} took {elapsed:?}");
     common::lines_of(outcome)
 }
 
 #[test]
 fn ten_thousand_term_chains_check_and_run() {
-    let limit = Duration::from_secs(20);
     let terms = 10_000;
     let sum = format!("int n = 1{};\nprint(n);\n", " + 1".repeat(terms - 1));
-    assert_eq!(run_within("sum.felt", &sum, limit), ["10000"]);
+    assert_eq!(run_clean("sum.felt", &sum), ["10000"]);
     let mixed = format!(
         "float x = 0{};\nprint(x);\n",
         " + 2 * 3 - 10 / 2".repeat(terms)
     );
-    assert_eq!(run_within("mixed.felt", &mixed, limit), ["10000.0"]);
+    assert_eq!(run_clean("mixed.felt", &mixed), ["10000.0"]);
     let all = format!("bool b = true{};\nprint(b);\n", " && 1 < 2".repeat(terms));
-    assert_eq!(run_within("and.felt", &all, limit), ["true"]);
+    assert_eq!(run_clean("and.felt", &all), ["true"]);
     // `||` still stops at the first true operand: the division by zero is never evaluated.
     let any = format!(
         "int z = 0;\nbool b = false{} || true || 1 / z == 1;\nprint(b);\n",
         " || 1 > 2".repeat(terms)
     );
-    assert_eq!(run_within("or.felt", &any, limit), ["true"]);
+    assert_eq!(run_clean("or.felt", &any), ["true"]);
     // A field graph 10,000 additions deep, built and probed.
     let field = format!(
         "scalarfield f = identity().x{};\nprint(probe(f, (0.5, 0, 0)));\n",
         " + identity().x".repeat(terms - 1)
     );
-    assert_eq!(run_within("field.felt", &field, limit), ["5000.0"]);
+    assert_eq!(run_clean("field.felt", &field), ["5000.0"]);
 }
 
 #[test]
 fn two_thousand_else_ifs_check_and_run() {
-    let limit = Duration::from_secs(20);
     let branches = 2_000;
     let chain: String = (1..branches)
         .map(|k| format!("  else if (k == {k}) {{ return {}; }}\n", k * 10))
@@ -66,10 +59,7 @@ fn two_thousand_else_ifs_check_and_run() {
             .map(|j| format!("else if (k == {j}) found = {j};\n"))
             .collect::<String>()
     );
-    assert_eq!(
-        run_within("chain.felt", &script, limit),
-        ["0 19990 -1", "1234"]
-    );
+    assert_eq!(run_clean("chain.felt", &script), ["0 19990 -1", "1234"]);
 }
 
 #[test]
@@ -107,7 +97,7 @@ fn five_thousand_advection_steps_build_and_probe() {
                   scalarfield f = identity().x;\n\
                   for (int i = 0; i < 5000; i++) { f = advect(f, u, 0.001, 4); }\n\
                   print(probe(f, (0.1, 0.2, 0)));\n";
-    let lines = run_within("advect.felt", script, Duration::from_secs(30));
+    let lines = run_clean("advect.felt", script);
     // A rotation by 5 radians about z: the back-traced x of (0.1, 0.2, 0).
     let expected = 0.1 * 5f64.cos() + 0.2 * 5f64.sin();
     let value: f64 = lines[0].parse().unwrap();
