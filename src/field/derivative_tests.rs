@@ -2,23 +2,9 @@
 //! same bits, as the trace of the full Jacobian, checked against that trace, closed forms and
 //! central differences.
 
+use super::tests::{s, scalar_at, x};
 use super::*;
 use crate::field::noise::NoiseKind;
-
-fn x() -> Field {
-    Field::identity()
-}
-
-fn s(c: f64) -> Field {
-    Field::constant_scalar(c)
-}
-
-fn scalar_at(f: &Field, p: DVec3) -> f64 {
-    match probe(f, p).unwrap() {
-        FieldValue::Scalar(v) => v,
-        other => panic!("not a scalar: {other:?}"),
-    }
-}
 
 /// The Laplacian as it was first written: the trace of the full Hessian, all nine second
 /// derivatives built.

@@ -6,15 +6,15 @@ use crate::field::noise::NoiseKind;
 use crate::grid::domain::Domain;
 use crate::sample::{Aabb, FieldSampler};
 
-fn x() -> Field {
+pub(super) fn x() -> Field {
     Field::identity()
 }
 
-fn s(c: f64) -> Field {
+pub(super) fn s(c: f64) -> Field {
     Field::constant_scalar(c)
 }
 
-fn scalar_at(f: &Field, p: DVec3) -> f64 {
+pub(super) fn scalar_at(f: &Field, p: DVec3) -> f64 {
     match probe(f, p).unwrap() {
         FieldValue::Scalar(v) => v,
         other => panic!("not a scalar: {other:?}"),
