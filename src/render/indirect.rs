@@ -1,5 +1,5 @@
 //! The march's indirect light: a coarse grid of the light arriving inside the medium that is
-//! not the lights' own, filled by the path tracer and read by the march like the shadow grid.
+//! not the lights' own, read by the march like the shadow grid.
 //!
 //! The march computes single scattering exactly: at each sample, the lights' light attenuated
 //! along its column, weighed by the phase function. What it cannot compute per sample is the
@@ -11,19 +11,25 @@
 //! S(x) = ∫ p(u·d) L_indirect(x, u) du,      d the direction from the camera to x
 //! ```
 //!
-//! estimated at the centre of each grid cell by `paths` path-traced rays whose directions `u`
-//! are drawn from the phase around `d` (`path::Arrivals`: the reference integrator's medium,
-//! lights and sky, and its first bounce from the camera, so the two integrators agree by
-//! construction), from origins jittered over the cell so a cell holds its mean, not a point
-//! value. Storing what reaches the camera, not an angular average, keeps what a low-order
-//! expansion loses in a dense cloud: there the indirect light just under a surface lit from
-//! the camera's side is a strong lobe from the sun, which a strongly forward phase scatters
-//! almost none of back to the camera. The march adds `σs·S(x)` per unit length, as it adds
-//! an ambient term. The one key decision: only cells a dense sample can blend are estimated (the cells whose neighbourhood the majorants do not prove
-//! empty), in parallel, each from its own random stream, so the grid is bit-identical for any
-//! thread count and costs nothing in empty space. Under motion blur the grid is estimated once,
-//! at the frame's time.
+//! and the march adds `σs·S(x)` per unit length, as it adds an ambient term. Storing what
+//! reaches the camera, not an angular average, keeps what a low-order expansion loses in a
+//! dense cloud: there the indirect light just under a surface lit from the camera's side is a
+//! strong lobe from the sun, which a strongly forward phase scatters almost none of back to
+//! the camera.
+//!
+//! `S` has two parts, each estimated where its estimator is cheap. The lights' scattered light
+//! comes from photons (`render::photons`): one photon scores at every scattering of its walk,
+//! which in a dense cloud is hundreds of samples for the price of one path. The sky and the
+//! scattered emission are gathered here: `paths` path-traced rays per cell from origins
+//! jittered over it, their directions drawn from the phase around `d` (`path::Arrivals`: the
+//! reference integrator's medium and sky from a scene without the lights, so the two
+//! integrators agree by construction). The one key decision: only cells a dense sample can
+//! blend are estimated (the cells whose neighbourhood the majorants do not prove empty), in
+//! parallel, each from its own random stream, and paths and photons go where the camera sees
+//! (`camera_sees`); so the grid is bit-identical for any thread count and costs nothing in
+//! empty space. Under motion blur the grid is estimated once, at the frame's time.
 
+use super::Scene;
 use super::camera::Camera;
 use super::camera::Ray;
 use super::light::Light;
@@ -32,6 +38,8 @@ use super::path::majorant::Majorants;
 use super::path::sampling::{PathRandom, scatter};
 use super::path::tracking::Medium;
 use super::phase::Phase;
+use super::photons::{Cells, IMPORTANCE_FLOOR, Importance, PhotonBudget, PhotonInputs, Tally};
+use super::settings::RenderSettings;
 use super::space::clip_to_box;
 use crate::failure::{Failure, Outcome};
 use crate::sample::{Aabb, BlockEval, FieldSampler};
@@ -68,8 +76,12 @@ pub struct IndirectGrid {
     cell: DVec3,
     /// Per cell (x fastest), per colour channel; zero where no dense sample can read it.
     radiance: Vec<DVec3>,
+    /// The lights' multiply scattered light, from photons: per cell `∫σs·S dx` and `∫σs dx`.
+    photons: Option<Tally>,
     /// Cells estimated, of all.
     pub estimated: usize,
+    /// The run's memory budget held for the cells.
+    _reservation: crate::budget::Reservation,
 }
 
 /// What estimating a grid reads: the path tracer's view of the medium, its majorants, the
@@ -82,14 +94,72 @@ pub(crate) struct GridInputs<'a> {
     pub camera: &'a Camera,
     pub phase: Phase,
     pub kappa: DVec3,
+    /// The lights the gathered paths aim at (none where photons carry the lights' light).
     pub lights: &'a [Light],
     pub seed: u64,
+    /// Whether the cells gather at all: not where nothing but the lights lights the medium.
+    pub gather: bool,
 }
 
 impl IndirectGrid {
+    /// The march's grid of indirect light, where the render has one and something lights it.
+    pub(crate) fn for_render(
+        scene: &Scene,
+        settings: &RenderSettings,
+        bounds: Aabb,
+    ) -> Outcome<Option<IndirectGrid>> {
+        let Some(grid) = settings.indirect_grid() else {
+            return Ok(None);
+        };
+        if scene.lights.is_empty() && settings.sky.is_black() && scene.emission.is_none() {
+            return Ok(None);
+        }
+        let majorants = Majorants::build(
+            scene.density,
+            scene.emission,
+            bounds,
+            super::path::majorant::MAJORANT_CELLS,
+        )?;
+        // The lights' scattered light comes from photons; the cells gather the rest (the sky,
+        // emission and what they scatter), from a scene without the lights.
+        let unlit = Scene {
+            lights: Vec::new(),
+            camera: scene.camera.clone(),
+            ..*scene
+        };
+        let arrivals = Arrivals::new(scene, settings, bounds, &majorants);
+        let gathering = Arrivals::new(&unlit, settings, bounds, &majorants);
+        let inputs = GridInputs {
+            arrivals: &gathering,
+            majorants: &majorants,
+            density: scene.density,
+            camera: &scene.camera,
+            phase: settings.phase,
+            kappa: settings.kappa,
+            lights: &[],
+            seed: settings.seed,
+            gather: !settings.sky.is_black() || scene.emission.is_some(),
+        };
+        let photons = PhotonInputs {
+            arrivals: &arrivals,
+            density: scene.density,
+            color: scene.color,
+            camera: &scene.camera,
+            phase: settings.phase,
+            scattering: settings.kappa * settings.albedo.unwrap_or(0.0),
+            bounces: settings.bounces,
+            lights: &scene.lights,
+            seed: settings.seed,
+            image: (settings.width, settings.height),
+        };
+        let photons = (!scene.lights.is_empty()).then_some(&photons);
+        IndirectGrid::estimate(&inputs, photons, bounds, grid).map(Some)
+    }
+
     /// Estimates the grid on `bounds`.
     pub(crate) fn estimate(
         inputs: &GridInputs,
+        photons: Option<&PhotonInputs>,
         bounds: Aabb,
         settings: IndirectSettings,
     ) -> Outcome<IndirectGrid> {
@@ -116,17 +186,59 @@ impl IndirectGrid {
                 majorants.any_density(&Aabb::new(p - cell, p + cell))
             })
             .collect();
-        let values: Vec<Option<(usize, DVec3)>> = needed
+        // How much of each needed cell the camera sees: the gathered paths' count and the
+        // photons' importance.
+        let seen: Vec<f64> = needed
             .par_iter()
             .map_init(
-                || (arrivals.medium(), inputs.density.evaluator()),
-                |(medium, density), &index| {
+                || inputs.density.evaluator(),
+                |density, &index| {
+                    let centre = centre(unflatten(index, counts));
+                    camera_sees(inputs, density.as_mut(), centre, cell, &bounds)
+                },
+            )
+            .collect();
+        let refine = photon_refine(total);
+        // What the grid holds while the march reads it: its cells, and the photons' (their
+        // two halves and first scatterings while they are traced, then sums and masses).
+        let photon_cells = photons.map_or(0, |_| total * refine.pow(3));
+        let bytes = total * std::mem::size_of::<DVec3>() + photon_cells * PHOTON_CELL_BYTES;
+        let reservation =
+            crate::budget::reserve(bytes as f64, &format!("an indirect grid of {total} cells"))?;
+        let tally = match photons {
+            Some(photons) => {
+                let mut values = vec![1.0; total];
+                for (&index, &seen) in needed.iter().zip(&seen) {
+                    values[index] = (seen / IN_VIEW).clamp(IMPORTANCE_FLOOR, 1.0);
+                }
+                let importance = Importance {
+                    cells: Cells::on(bounds, counts),
+                    values,
+                };
+                let budget = photon_budget(settings, needed.len());
+                let cells = Cells::on(bounds, counts.map(|c| c * refine));
+                Some(Tally::trace(
+                    photons,
+                    cells,
+                    majorants,
+                    &importance,
+                    budget,
+                )?)
+            }
+            None => None,
+        };
+        let gathered = if inputs.gather { needed.len() } else { 0 };
+        let values: Vec<Option<(usize, DVec3)>> = (0..gathered)
+            .into_par_iter()
+            .map_init(
+                || arrivals.medium(),
+                |medium, n| {
                     if crate::interrupt::requested() {
                         return None;
                     }
+                    let index = needed[n];
                     let centre = centre(unflatten(index, counts));
-                    let most =
-                        path_count(inputs, density.as_mut(), centre, cell, &bounds, settings);
+                    let most = path_count(seen[n], settings);
                     let cell_paths = CellPaths {
                         inputs,
                         index,
@@ -150,7 +262,9 @@ impl IndirectGrid {
             counts,
             cell,
             radiance,
+            photons: tally,
             estimated: needed.len(),
+            _reservation: reservation,
         })
     }
 
@@ -188,7 +302,10 @@ impl IndirectGrid {
                 sum += self.radiance[flatten(c, self.counts)] * weight;
             }
         }
-        sum
+        match &self.photons {
+            Some(tally) => sum + tally.at(p),
+            None => sum,
+        }
     }
 }
 
@@ -206,29 +323,41 @@ struct CellPaths<'a> {
 }
 
 impl CellPaths<'_> {
-    /// The cell's `S`: the mean of its paths, drawn in batches until the standard error of the
-    /// mean (of the channels' sum) is within `TOLERANCE` of it, or `most` paths are drawn. A
-    /// smooth, thin medium stops after a batch; a speckled one takes every path it may. The
+    /// The cell's `S`: the mean of as many paths as a pilot batch says the cell needs for a
+    /// standard error (of the channels' sum) within `TOLERANCE` of the mean, at least a batch
+    /// and at most `most`. The pilot's own paths are not in the mean: a count chosen from the
+    /// same paths it averages stops early where the paths seen so far happen to agree, which
+    /// in a dense medium (rare bright paths) is when they are low, and biases the cell dark.
+    /// A smooth, thin medium takes a batch; a speckled one takes every path it may. The
     /// decision reads only the cell's own paths, so it is the same on any thread.
     fn estimate(&self, medium: &mut Medium, most: u32) -> DVec3 {
         let rounds = (self.inputs.lights.len() + 1) as u32;
         let batch = BATCH.div_ceil(rounds) * rounds;
-        let (mut sum, mut squares, mut drawn) = (DVec3::ZERO, 0.0, 0u32);
-        while drawn < most.max(1) {
-            for k in drawn..drawn + batch {
-                let value = self.path(medium, k);
-                sum += value;
-                squares += value.element_sum().powi(2);
-            }
-            drawn += batch;
-            let n = f64::from(drawn);
-            let mean = sum.element_sum() / n;
-            let variance = (squares / n - mean * mean).max(0.0) / (n - 1.0);
-            if variance.sqrt() <= TOLERANCE * mean.abs() {
-                break;
-            }
+        let mean_of = |medium: &mut Medium, paths: std::ops::Range<u32>| {
+            let count = f64::from(paths.len() as u32);
+            paths.map(|k| self.path(medium, k)).sum::<DVec3>() / count
+        };
+        // A cell that gets no more than a batch (one the camera barely sees) needs no pilot.
+        if most <= batch {
+            return mean_of(medium, 0..most.max(1).div_ceil(rounds) * rounds);
         }
-        sum / f64::from(drawn)
+        let (mut pilot, mut squares) = (0.0, 0.0);
+        for k in 0..batch {
+            let value = self.path(medium, k).element_sum();
+            pilot += value;
+            squares += value * value;
+        }
+        let n = f64::from(batch);
+        let mean = pilot / n;
+        let spread = ((squares / n - mean * mean).max(0.0) * n / (n - 1.0)).sqrt();
+        let wanted = (spread / (TOLERANCE * mean.abs())).powi(2);
+        let count = if wanted.is_finite() {
+            (wanted.ceil().min(f64::from(most)) as u32).div_ceil(batch) * batch
+        } else {
+            most.div_ceil(batch) * batch
+        };
+        let count = count.clamp(batch, most.div_ceil(batch) * batch);
+        mean_of(medium, batch..batch + count)
     }
 
     /// Path `k` of the cell: one sample of `S = ∫ p(u·d)·L(u) du` from a point jittered over
@@ -298,19 +427,30 @@ const HIDDEN: f64 = 1e-3;
 /// Transmittance above which a cell gets all its paths; below it, paths shrink in proportion.
 const IN_VIEW: f64 = 0.1;
 
-/// How many paths the cell at `centre` gets: all of them where the camera sees into its
-/// neighbourhood, fewer in proportion where the medium in front hides it, one where the
-/// camera cannot see it at all (its value is then blended into pixels only with weights below
-/// `HIDDEN`). The camera's view is a march of the density at half a cell from where the
-/// camera ray enters the box to the cell's corner nearest the camera, at the smallest κ.
-fn path_count(
+/// How many paths a cell the camera sees by `seen` gets: all of them where the camera sees
+/// into its neighbourhood, fewer in proportion where the medium in front hides it, one where
+/// the camera cannot see it at all (its value is then blended into pixels only with weights
+/// below `HIDDEN`).
+fn path_count(seen: f64, settings: IndirectSettings) -> u32 {
+    if seen >= IN_VIEW {
+        settings.paths
+    } else if seen < HIDDEN {
+        1
+    } else {
+        ((f64::from(settings.paths) * seen / IN_VIEW).ceil() as u32).max(1)
+    }
+}
+
+/// How much the camera sees of the cell at `centre`: the transmittance, at the smallest κ, of
+/// a march of the density at half a cell from where the camera ray enters the box to the
+/// corner of the cell's neighbourhood (one cell around it) nearest the camera.
+fn camera_sees(
     inputs: &GridInputs,
     density: &mut dyn BlockEval,
     centre: DVec3,
     cell: DVec3,
     bounds: &Aabb,
-    settings: IndirectSettings,
-) -> u32 {
+) -> f64 {
     let camera = inputs.camera;
     let towards_camera = if camera.is_orthographic() {
         -camera.forward()
@@ -319,7 +459,6 @@ fn path_count(
             .try_normalize()
             .unwrap_or(-camera.forward())
     };
-    // The corner of the cell's neighbourhood (one cell around it) nearest the camera.
     let near = centre + towards_camera.signum() * cell;
     let back = Ray {
         origin: near,
@@ -355,13 +494,31 @@ fn path_count(
     let kappa = [inputs.kappa.x, inputs.kappa.y, inputs.kappa.z]
         .into_iter()
         .fold(f64::INFINITY, f64::min);
-    let seen = (-kappa * column).exp();
-    if seen >= IN_VIEW {
-        settings.paths
-    } else if seen < HIDDEN {
-        1
-    } else {
-        ((f64::from(settings.paths) * seen / IN_VIEW).ceil() as u32).max(1)
+    (-kappa * column).exp()
+}
+
+/// The photons' cells are twice as fine as the gathered grid's along each axis (photons are
+/// cheap, and a dense cloud's light changes within a few of its mean free paths), as long as
+/// that makes no more than `MOST_PHOTON_CELLS`.
+fn photon_refine(cells: usize) -> usize {
+    if cells * 8 <= MOST_PHOTON_CELLS { 2 } else { 1 }
+}
+
+const MOST_PHOTON_CELLS: usize = 1 << 24;
+
+/// Bytes a photon cell needs at most: two halves, the first scatterings, the masses and the
+/// sums.
+const PHOTON_CELL_BYTES: usize = 4 * std::mem::size_of::<DVec3>() + std::mem::size_of::<f64>();
+
+/// The photons for a grid of `needed` cells: at first a quarter of the paths the cells would
+/// gather, doubling until the noise the camera would see is within 7 %, at most four times
+/// as many.
+fn photon_budget(settings: IndirectSettings, needed: usize) -> PhotonBudget {
+    let paths = u64::from(settings.paths) * needed as u64;
+    PhotonBudget {
+        first: (paths / 4).max(1),
+        most: (paths * 4).max(1),
+        tolerance: 0.07,
     }
 }
 

@@ -32,6 +32,7 @@ mod march;
 pub mod motion;
 pub mod path;
 pub mod phase;
+mod photons;
 pub mod progress;
 pub mod settings;
 pub mod sky;
@@ -362,15 +363,16 @@ fn render_layers(
     let started = Instant::now();
     let illumination = Illumination::new(scene.density, &scene.lights, settings, bounds, step)?;
     let indirect_started = Instant::now();
-    let (indirect, indirect_skipped) = match indirect_grid(scene, settings, still) {
-        Ok(grid) => (grid, None),
-        // A density whose range is unknown cannot be path-traced; with no sky asked for, the
-        // march still renders its exact single scattering, and says what it left out.
-        Err(failure) if !failure.internal && settings.sky.is_black() => {
-            (None, Some(failure.message))
-        }
-        Err(failure) => return Err(failure),
-    };
+    let (indirect, indirect_skipped) =
+        match indirect::IndirectGrid::for_render(scene, settings, still) {
+            Ok(grid) => (grid, None),
+            // A density whose range is unknown cannot be path-traced; with no sky asked for, the
+            // march still renders its exact single scattering, and says what it left out.
+            Err(failure) if !failure.internal && settings.sky.is_black() => {
+                (None, Some(failure.message))
+            }
+            Err(failure) => return Err(failure),
+        };
     let indirect_seconds = indirect_started.elapsed().as_secs_f64();
     let shadow_seconds = started.elapsed().as_secs_f64();
     let occupancy = Occupancy::build(seen_density, seen_emission, bounds, step);
@@ -474,38 +476,6 @@ fn render_layers(
         None => None,
     };
     Ok((image, deep, stats))
-}
-
-/// The march's grid of indirect light, where the render has one and something lights it.
-fn indirect_grid(
-    scene: &Scene,
-    settings: &RenderSettings,
-    bounds: Aabb,
-) -> Outcome<Option<indirect::IndirectGrid>> {
-    let Some(grid) = settings.indirect_grid() else {
-        return Ok(None);
-    };
-    if scene.lights.is_empty() && settings.sky.is_black() && scene.emission.is_none() {
-        return Ok(None);
-    }
-    let majorants = path::majorant::Majorants::build(
-        scene.density,
-        scene.emission,
-        bounds,
-        path::majorant::MAJORANT_CELLS,
-    )?;
-    let arrivals = path::Arrivals::new(scene, settings, bounds, &majorants);
-    let inputs = indirect::GridInputs {
-        arrivals: &arrivals,
-        majorants: &majorants,
-        density: scene.density,
-        camera: &scene.camera,
-        phase: settings.phase,
-        kappa: settings.kappa,
-        lights: &scene.lights,
-        seed: settings.seed,
-    };
-    indirect::IndirectGrid::estimate(&inputs, bounds, grid).map(Some)
 }
 
 fn check_width(what: &str, field: &dyn FieldSampler, width: usize) -> Outcome<()> {

@@ -189,6 +189,11 @@ impl Majorants {
         self.density.iter().copied().fold(0.0, f64::max)
     }
 
+    /// The box the majorants cover.
+    pub fn bounds(&self) -> Aabb {
+        self.bounds
+    }
+
     /// Whether any cell overlapping `region` may hold density (parts outside the box hold
     /// none).
     pub fn any_density(&self, region: &Aabb) -> bool {
