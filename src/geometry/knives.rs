@@ -75,6 +75,33 @@ pub fn cut(l0: &Field, knives: &[Field], domain: &Domain, min_volume: f64) -> Ou
     Ok(out)
 }
 
+/// Every side of every knife through the solid `l0` (`cutall`, docs/language.md "Knives"):
+/// `2ⁿ` level sets for `n` knives, level set `i` being `min(l0, ±k₀, ±k₁, …)` with knife 0
+/// deciding the most significant bit of `i` and a 0 bit meaning the knife's positive side. Each
+/// knife splits every side so far in two, so the sides share their prefixes: `2ⁿ⁺¹ − 2` `min`
+/// nodes in all (`side_nodes`), which the caller checks against the budget first; the
+/// graphs are checked again after each knife, so a projection that fell short still stops.
+pub fn sides(l0: &Field, knives: &[Field]) -> Outcome<Vec<Field>> {
+    let mut sides = vec![l0.clone()];
+    for knife in knives {
+        crate::field::node::check_graph_memory()?;
+        let against = knife.neg();
+        let mut next = Vec::with_capacity(2 * sides.len());
+        for side in &sides {
+            next.push(Field::min(side, knife)?);
+            next.push(Field::min(side, &against)?);
+        }
+        sides = next;
+    }
+    Ok(sides)
+}
+
+/// The `min` nodes `sides` makes for `knives` knives, at most (equal structure is one node):
+/// `2 + 4 + … + 2ⁿ`, and a negation per knife.
+pub fn side_nodes(knives: usize) -> f64 {
+    2f64.powi(knives as i32 + 1) - 2.0 + knives as f64
+}
+
 /// The lowest and highest cell index (inclusive) along each axis.
 type CellBox = ([usize; 3], [usize; 3]);
 
