@@ -341,6 +341,35 @@ fn arrays_of_fields_are_held_in_the_budget() {
     }
 }
 
+/// `cutpieces` keeps a table of the regions it meets, up to one per cell inside the solid:
+/// twenty knives of fine noise meet a new one at almost every cell, and the table is
+/// refused as it doubles past the budget, before any region is meshed.
+#[test]
+fn cutpieces_refuses_a_table_of_regions_past_the_budget() {
+    let dir = tempfile::tempdir().unwrap();
+    let script = dir.path().join("regions.felt");
+    std::fs::write(
+        &script,
+        "scalarfield ball = sphere((0, 0, 0), 1.0);\n\
+         scalarfield[] knives;\n\
+         for (int k = 0; k < 20; k++) { knives[k] = perlin(32.0, k); }\n\
+         domain d((-1, -1, -1), (2, 2, 2), (0, 0, 0), 2.0 / 64);\n\
+         print(size(cutpieces(ball, knives, d)));\n",
+    )
+    .unwrap();
+    let limit = 10;
+    let run = run(dir.path(), script.to_str().unwrap(), &[], limit);
+    println!("cutpieces at {limit} MiB: peak RSS {:.1} MiB", run.peak_mib);
+    assert_eq!(run.code, 1, "{}", run.stderr);
+    let said = unwrapped(&run.stderr);
+    assert!(
+        said.contains("over the memory budget") && said.contains("cutpieces' table of"),
+        "{}",
+        run.stderr
+    );
+    assert!(run.peak_mib <= (limit + BASELINE_MIB) as f64);
+}
+
 /// A cut that fits still runs under a limit, and the builtin `cutall` makes the same level
 /// sets as the loop written in felt: the same values everywhere (hash-consing makes equal
 /// structure one node, so the node counts `print` shows agree too).

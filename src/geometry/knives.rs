@@ -105,8 +105,12 @@ pub fn side_nodes(knives: usize) -> f64 {
 /// The lowest and highest cell index (inclusive) along each axis.
 type CellBox = ([usize; 3], [usize; 3]);
 
+/// What a region takes in `regions`' table: its code and box (56 bytes) in a B-tree node,
+/// whose eleven slots are two-thirds full on average.
+const REGION_BYTES: f64 = 56.0 * 1.5;
+
 /// The sign vectors met at cell centres inside `l0`, each with the box of cell indices where
-/// it occurs.
+/// it occurs; the table is checked against the budget each time it doubles.
 fn regions(
     l0: &Field,
     knives: &[Field],
@@ -114,6 +118,7 @@ fn regions(
     [nx, ny, nz]: [usize; 3],
 ) -> Outcome<BTreeMap<u64, CellBox>> {
     let mut boxes: BTreeMap<u64, CellBox> = BTreeMap::new();
+    let mut checked_at = 1 << 16;
     let mut slice = Vec::with_capacity(nx * ny);
     for k in 0..nz {
         slice.clear();
@@ -136,6 +141,23 @@ fn regions(
                 continue;
             }
             let cell = [index % nx, index / nx, k];
+            if boxes.len() == checked_at && !boxes.contains_key(&code) {
+                // Regions are met, not projected: up to one per cell inside the solid.
+                checked_at = 2 * checked_at;
+                let what = format!("cutpieces' table of {checked_at} regions");
+                crate::field::node::check_beside_graphs(
+                    0.0,
+                    checked_at as f64 * REGION_BYTES,
+                    &what,
+                )
+                .map_err(|f| {
+                    f.with_help(
+                        "every region the knives make inside the solid is met, kept and meshed \
+                         on its own: cut with fewer or smoother knives, use a coarser cell, or \
+                         raise the budget with --memory-limit MB",
+                    )
+                })?;
+            }
             let entry = boxes.entry(code).or_insert((cell, cell));
             for axis in 0..3 {
                 entry.0[axis] = entry.0[axis].min(cell[axis]);

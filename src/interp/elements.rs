@@ -200,7 +200,11 @@ mod tests {
                 libc::free(block);
                 usable + 8
             };
-            assert_eq!(heap_block(request), chunk as u64, "a request of {request} bytes");
+            assert_eq!(
+                heap_block(request),
+                chunk as u64,
+                "a request of {request} bytes"
+            );
         }
     }
 }
