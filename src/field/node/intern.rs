@@ -162,7 +162,10 @@ pub fn check_graph_memory() -> crate::failure::Outcome<()> {
 /// beside the live graphs in what is left of the budget: graphs and arrays of fields grow
 /// together, and each alone fitting says nothing of both. `what` names the request.
 pub fn check_beside_graphs(nodes: f64, bytes: f64, what: &str) -> crate::failure::Outcome<()> {
-    check_nodes_and(nodes, bytes, |_| what.to_string())
+    check_nodes_and(nodes, bytes, |live| match live {
+        0 => what.to_string(),
+        live => format!("{what}, beside field graphs of {live} nodes,"),
+    })
 }
 
 /// What a node costs in the budget (`NODE_BYTES`), for projections of graphs yet to be made.
