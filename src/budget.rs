@@ -4,8 +4,8 @@
 //! an abort.
 //!
 //! Long-lived storage takes a `Reservation` that gives its bytes back when dropped (a cache
-//! holds one for as long as it lives); short-lived values are only checked against what is
-//! left. Each engine (`crate::engine`) has its own budget; the free functions here use the
+//! holds one for as long as it lives, an array for its elements); short-lived values are only
+//! checked against what is left. Each engine (`crate::engine`) has its own budget; the free functions here use the
 //! current one. The budget is `--memory-limit` when given, else half of the memory this process may
 //! use: the smallest of physical memory, the cgroup's `memory.max` and the address-space and
 //! data-segment limits (`ulimit -v`, `ulimit -d`). Half, because the budget counts the large
@@ -92,6 +92,18 @@ impl Budget {
         }
     }
 
+    /// Takes `bytes` of the budget for storage that already exists (an array built by a
+    /// builtin, a copy made on write), without refusing: what is made is counted while it
+    /// lives, so later requests see it; the request that made it was checked beforehand.
+    pub fn hold(self: &Arc<Self>, bytes: u64) -> Reservation {
+        let now = self.used.fetch_add(bytes, Ordering::Relaxed) + bytes;
+        self.peak.fetch_max(now, Ordering::Relaxed);
+        Reservation {
+            bytes,
+            budget: self.clone(),
+        }
+    }
+
     /// Checks that `bytes` fit in what is left of the budget, without holding them; kept
     /// spare buffers are freed first when they would not fit otherwise.
     pub fn check(&self, bytes: f64, what: &str) -> Outcome<()> {
@@ -118,7 +130,7 @@ impl Budget {
         let (limit, used) = (self.limit() as f64, self.used() as f64);
         let held = if used > 0.0 {
             format!(
-                " ({} of it already held by this run's caches and buffers)",
+                " ({} of it already held by this run's caches, buffers and arrays)",
                 human(used)
             )
         } else {
@@ -215,6 +227,32 @@ pub struct Reservation {
     budget: Arc<Budget>,
 }
 
+impl Reservation {
+    /// Holds `bytes` instead, for storage that grew or shrank (growth is checked by the
+    /// caller before the storage is made).
+    pub fn resize(&mut self, bytes: u64) {
+        if bytes >= self.bytes {
+            let now = self
+                .budget
+                .used
+                .fetch_add(bytes - self.bytes, Ordering::Relaxed);
+            self.budget
+                .peak
+                .fetch_max(now + bytes - self.bytes, Ordering::Relaxed);
+        } else {
+            self.budget
+                .used
+                .fetch_sub(self.bytes - bytes, Ordering::Relaxed);
+        }
+        self.bytes = bytes;
+    }
+
+    /// The bytes held.
+    pub fn bytes(&self) -> u64 {
+        self.bytes
+    }
+}
+
 impl Drop for Reservation {
     fn drop(&mut self) {
         self.budget.used.fetch_sub(self.bytes, Ordering::Relaxed);
@@ -237,6 +275,12 @@ pub fn human(bytes: f64) -> String {
 /// buffer).
 pub fn reserve(bytes: f64, what: &str) -> Outcome<Reservation> {
     crate::engine::current().budget.reserve(bytes, what)
+}
+
+/// Takes `bytes` of the current engine's budget for storage that already exists (see
+/// `Budget::hold`).
+pub fn hold(bytes: u64) -> Reservation {
+    crate::engine::current().budget.hold(bytes)
 }
 
 /// Checks that `bytes` fit in what is left of the current engine's budget, without holding
@@ -274,6 +318,16 @@ mod tests {
             "a dropped reservation gives its bytes back"
         );
         drop(held);
+        assert_eq!(budget.used(), 0);
+        // Storage that exists is held without refusal, and follows its storage's size.
+        let mut made = budget.hold(12_000);
+        assert_eq!((budget.used(), budget.peak()), (12_000, 12_000));
+        assert!(budget.check(1.0, "anything more").is_err());
+        made.resize(3000);
+        assert_eq!((budget.used(), made.bytes()), (3000, 3000));
+        made.resize(5000);
+        assert_eq!(budget.used(), 5000);
+        drop(made);
         assert_eq!(budget.used(), 0);
         assert!(budget.reserve(f64::NAN, "a NaN-sized thing").is_err());
         assert!(budget.reserve(-1.0, "a negative size").is_err());

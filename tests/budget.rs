@@ -20,10 +20,11 @@ use std::process::{Command, Stdio};
 /// What the process holds besides the budget: code, the interpreter and thread stacks.
 const BASELINE_MIB: u64 = 16;
 
-/// A finished child: exit status, peak RSS in MiB, stderr.
+/// A finished child: exit status, peak RSS in MiB, stdout and stderr.
 struct Run {
     code: i32,
     peak_mib: f64,
+    stdout: String,
     stderr: String,
 }
 
@@ -70,6 +71,7 @@ fn wait(mut command: Command, dir: &Path) -> Run {
         code,
         // ru_maxrss is in KiB on Linux.
         peak_mib: usage.ru_maxrss as f64 / 1024.0,
+        stdout: std::fs::read_to_string(dir.join("stdout")).unwrap_or_default(),
         stderr: std::fs::read_to_string(dir.join("stderr")).unwrap_or_default(),
     }
 }
@@ -227,11 +229,14 @@ fn growing_graphs_end_in_a_budget_diagnostic() {
     .unwrap();
     // The tower also under a budget of gigabytes: the level that would not fit is refused
     // from the rate at which it starts to grow, not after it is built (which took most of a
-    // minute and overshot the limit); the help speaks of nested derivatives.
+    // minute and overshot the limit); the help speaks of nested derivatives. The knives too:
+    // `cutall` is refused from the size of its 2^24 level sets before it makes one (it once
+    // built them for 38 s and peaked at 2.9 GB, its arrays uncounted).
     for (script, grew, limit) in [
         (&tower, "derivative", 48),
-        (&knives, "knife", 48),
+        (&knives, "cutall by 24 knives", 48),
         (&tower, "nested derivative", 2000),
+        (&knives, "cutall by 24 knives", 2000),
     ] {
         let run = run(dir.path(), script.to_str().unwrap(), &[], limit);
         println!(
@@ -253,6 +258,158 @@ fn growing_graphs_end_in_a_budget_diagnostic() {
             run.peak_mib
         );
     }
+}
+
+/// The old library `cutall`, written in felt: its arrays of fields grow with the graphs.
+const CUT_IN_FELT: &str = "\
+func scalarfield[] cutinfelt(scalarfield l0, scalarfield[] knives) {
+    scalarfield[] pieces = {l0};
+    for (int k = 0; k < size(knives); k++) {
+        scalarfield[] next;
+        for (int i = 0; i < size(pieces); i++) {
+            next[size(next)] = min(pieces[i], knives[k]);
+            next[size(next)] = min(pieces[i], -knives[k]);
+        }
+        pieces = next;
+    }
+    return pieces;
+}
+";
+
+/// Knives through a sphere, as tests/scripts/heavy/knives.felt sets them.
+fn knives_script(knives: usize, cut: &str, then: &str) -> String {
+    format!(
+        "{CUT_IN_FELT}\
+         scalarfield[] knives;\n\
+         for (int k = 0; k < {knives}; k++) {{\n    \
+             knives[k] = flatknife((0, 0, 0.01 * k), (0.1 * k, 1, 0));\n}}\n\
+         scalarfield[] pieces = {cut}(sphere((0, 0, 0), 1.0), knives);\n\
+         {then}"
+    )
+}
+
+/// Arrays hold their elements' memory in the budget while they live, and grow only beside
+/// what is held and the live field graphs: the same 24 knives cut by a loop written in felt
+/// stop at the budget with the arrays, the field blocks they own and the graph nodes all
+/// counted (counting only the nodes, it peaked at 1.5 times its limit under 2000 MB), and so
+/// do an array grown without end beside one that stays, a copy made on write and an array of
+/// fields, each within the limit plus the baseline.
+#[test]
+fn arrays_of_fields_are_held_in_the_budget() {
+    let dir = tempfile::tempdir().unwrap();
+    let script = dir.path().join("cutinfelt.felt");
+    let cases = [
+        (
+            knives_script(24, "cutinfelt", "print(size(pieces));\n"),
+            200,
+        ),
+        // One array that stays and a second that grows without end: the second's growth
+        // must leave room for the first (counting only what grew, they peaked at 89 MiB).
+        (
+            "float[] kept;\nfor (int i = 0; i < 524288; i++) { kept[i] = i; }\n\
+             float[] more;\nfor (int i = 0; i < 2000000000; i++) { more[i] = i; }\n\
+             print(size(kept), size(more));\n"
+                .to_string(),
+            64,
+        ),
+        // An array written after it was shared is copied: the copy must fit beside the
+        // original first (unchecked, it completed at a peak of 87 MiB).
+        (
+            "float[] kept;\nfor (int i = 0; i < 524288; i++) { kept[i] = i; }\n\
+             float[] copy = kept;\ncopy[0] = 1;\nprint(size(copy));\n"
+                .to_string(),
+            64,
+        ),
+        // A million fields, each its own block over one shared node: the blocks are counted
+        // with the slots (counting only the slots, they peaked at 64 MiB).
+        (
+            "scalarfield ball = sphere((0, 0, 0), 1.0);\nscalarfield[] scaled;\n\
+             for (int i = 0; i < 2000000000; i++) { scaled[i] = ball * 2.0; }\n\
+             print(size(scaled));\n"
+                .to_string(),
+            41,
+        ),
+    ];
+    for (text, limit) in cases {
+        std::fs::write(&script, &text).unwrap();
+        let run = run(dir.path(), script.to_str().unwrap(), &[], limit);
+        println!("at {limit} MiB: peak RSS {:.1} MiB", run.peak_mib);
+        assert_eq!(run.code, 1, "{}", run.stderr);
+        let said = unwrapped(&run.stderr);
+        assert!(
+            said.contains("over the memory budget") && !said.contains("panicked"),
+            "{}",
+            run.stderr
+        );
+        assert!(
+            run.peak_mib <= (limit + BASELINE_MIB) as f64,
+            "peaked at {:.1} MiB under a limit of {limit} MiB:\n{text}",
+            run.peak_mib
+        );
+    }
+}
+
+/// `cutpieces` keeps a table of the regions it meets, up to one per cell inside the solid:
+/// twenty knives of fine noise meet a new one at almost every cell, and the table is
+/// refused as it doubles past the budget, before any region is meshed.
+#[test]
+fn cutpieces_refuses_a_table_of_regions_past_the_budget() {
+    let dir = tempfile::tempdir().unwrap();
+    let script = dir.path().join("regions.felt");
+    std::fs::write(
+        &script,
+        "scalarfield ball = sphere((0, 0, 0), 1.0);\n\
+         scalarfield[] knives;\n\
+         for (int k = 0; k < 20; k++) { knives[k] = perlin(32.0, k); }\n\
+         domain d((-1, -1, -1), (2, 2, 2), (0, 0, 0), 2.0 / 64);\n\
+         print(size(cutpieces(ball, knives, d)));\n",
+    )
+    .unwrap();
+    let limit = 10;
+    let run = run(dir.path(), script.to_str().unwrap(), &[], limit);
+    println!("cutpieces at {limit} MiB: peak RSS {:.1} MiB", run.peak_mib);
+    assert_eq!(run.code, 1, "{}", run.stderr);
+    let said = unwrapped(&run.stderr);
+    assert!(
+        said.contains("over the memory budget") && said.contains("cutpieces' table of"),
+        "{}",
+        run.stderr
+    );
+    assert!(run.peak_mib <= (limit + BASELINE_MIB) as f64);
+}
+
+/// A cut that fits still runs under a limit, and the builtin `cutall` makes the same level
+/// sets as the loop written in felt: the same values everywhere (hash-consing makes equal
+/// structure one node, so the node counts `print` shows agree too).
+#[test]
+fn cutall_that_fits_gives_the_pieces_of_the_loop_in_felt() {
+    let dir = tempfile::tempdir().unwrap();
+    let script = dir.path().join("cut.felt");
+    let compare = "\
+        scalarfield[] again = cutinfelt(sphere((0, 0, 0), 1.0), knives);\n\
+        print(size(pieces));\nprint(size(again));\n\
+        for (int i = 0; i < size(pieces); i++) {\n    \
+            print(pieces[i]);\n    print(again[i]);\n    \
+            for (int j = 0; j < 20; j++) {\n        \
+                vector p = (sin(j * 1.3), cos(j * 0.7), sin(j * 2.9)) * 0.9;\n        \
+                print(probe(pieces[i], p));\n        print(probe(again[i], p));\n    \
+            }\n\
+        }\n";
+    std::fs::write(&script, knives_script(5, "cutall", compare)).unwrap();
+    let run = run(dir.path(), script.to_str().unwrap(), &[], 64);
+    assert_eq!(run.code, 0, "{}", run.stderr);
+    let lines: Vec<&str> = run.stdout.lines().collect();
+    assert_eq!(lines.len(), 2 * (1 + 32 * 21), "{}", run.stdout);
+    assert_eq!(lines[..2], ["32", "32"]);
+    let mut inside = std::collections::BTreeSet::new();
+    for pair in lines.chunks(2) {
+        assert_eq!(pair[0], pair[1], "{}", run.stdout);
+        if let Ok(value) = pair[0].parse::<f64>() {
+            inside.insert(value > 0.0);
+        }
+    }
+    // Points inside and outside pieces were probed, so the comparison saw real values.
+    assert_eq!(inside.len(), 2, "{}", run.stdout);
 }
 
 /// Under an address-space limit (`ulimit -v`, 2000 MB here) more worker threads than their

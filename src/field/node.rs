@@ -21,7 +21,10 @@ use intern::intern;
 use std::fmt;
 use std::sync::Arc;
 
-pub use intern::{IdHasher, check_graph_memory, check_projected_growth, nodes_made, table_len};
+pub use intern::{
+    IdHasher, check_beside_graphs, check_graph_memory, check_projected_growth, node_bytes,
+    nodes_made, table_len,
+};
 
 /// A shared scalar node.
 pub type NodeRef = Arc<Node>;

@@ -75,11 +75,42 @@ pub fn cut(l0: &Field, knives: &[Field], domain: &Domain, min_volume: f64) -> Ou
     Ok(out)
 }
 
+/// Every side of every knife through the solid `l0` (`cutall`, docs/language.md "Knives"):
+/// `2ⁿ` level sets for `n` knives, level set `i` being `min(l0, ±k₀, ±k₁, …)` with knife 0
+/// deciding the most significant bit of `i` and a 0 bit meaning the knife's positive side. Each
+/// knife splits every side so far in two, so the sides share their prefixes: `2ⁿ⁺¹ − 2` `min`
+/// nodes in all (`side_nodes`), which the caller checks against the budget first; the
+/// graphs are checked again after each knife, so a projection that fell short still stops.
+pub fn sides(l0: &Field, knives: &[Field]) -> Outcome<Vec<Field>> {
+    let mut sides = vec![l0.clone()];
+    for knife in knives {
+        crate::field::node::check_graph_memory()?;
+        let against = knife.neg();
+        let mut next = Vec::with_capacity(2 * sides.len());
+        for side in &sides {
+            next.push(Field::min(side, knife)?);
+            next.push(Field::min(side, &against)?);
+        }
+        sides = next;
+    }
+    Ok(sides)
+}
+
+/// The `min` nodes `sides` makes for `knives` knives, at most (equal structure is one node):
+/// `2 + 4 + … + 2ⁿ`, and a negation per knife.
+pub fn side_nodes(knives: usize) -> f64 {
+    2f64.powi(knives as i32 + 1) - 2.0 + knives as f64
+}
+
 /// The lowest and highest cell index (inclusive) along each axis.
 type CellBox = ([usize; 3], [usize; 3]);
 
+/// What a region takes in `regions`' table: its code and box (56 bytes) in a B-tree node,
+/// whose eleven slots are two-thirds full on average.
+const REGION_BYTES: f64 = 56.0 * 1.5;
+
 /// The sign vectors met at cell centres inside `l0`, each with the box of cell indices where
-/// it occurs.
+/// it occurs; the table is checked against the budget each time it doubles.
 fn regions(
     l0: &Field,
     knives: &[Field],
@@ -87,6 +118,7 @@ fn regions(
     [nx, ny, nz]: [usize; 3],
 ) -> Outcome<BTreeMap<u64, CellBox>> {
     let mut boxes: BTreeMap<u64, CellBox> = BTreeMap::new();
+    let mut checked_at = 1 << 16;
     let mut slice = Vec::with_capacity(nx * ny);
     for k in 0..nz {
         slice.clear();
@@ -109,6 +141,23 @@ fn regions(
                 continue;
             }
             let cell = [index % nx, index / nx, k];
+            if boxes.len() == checked_at && !boxes.contains_key(&code) {
+                // Regions are met, not projected: up to one per cell inside the solid.
+                checked_at *= 2;
+                let what = format!("cutpieces' table of {checked_at} regions");
+                crate::field::node::check_beside_graphs(
+                    0.0,
+                    checked_at as f64 * REGION_BYTES,
+                    &what,
+                )
+                .map_err(|f| {
+                    f.with_help(
+                        "every region the knives make inside the solid is met, kept and meshed \
+                         on its own: cut with fewer or smoother knives, use a coarser cell, or \
+                         raise the budget with --memory-limit MB",
+                    )
+                })?;
+            }
             let entry = boxes.entry(code).or_insert((cell, cell));
             for axis in 0..3 {
                 entry.0[axis] = entry.0[axis].min(cell[axis]);

@@ -245,6 +245,12 @@ fn store(
         Type::Array(e) => (**e).clone(),
         _ => elem.clone(),
     };
+    // Copying a shared array on write makes a second storage as large: it must fit first.
+    if Rc::strong_count(items) > 1 {
+        let what = format!("a copy of an array of {} elements", items.len());
+        crate::field::node::check_beside_graphs(0.0, items.copy_bytes(), &what)
+            .map_err(|f| (*span, f))?;
+    }
     let items = Rc::make_mut(items);
     let len = items.len() as i64;
     if *index < 0 || *index > len {
@@ -260,16 +266,11 @@ fn store(
                 format!("index {index} is out of range for an array of size {len}"),
             ));
         }
-        // Growing past the capacity doubles it: the new storage must fit the budget.
-        if let Some(bytes) = super::value::growth_bytes(items.len(), items.capacity()) {
-            crate::budget::check(bytes, &format!("an array of {} elements", items.len() + 1))
-                .map_err(|f| (*span, f))?;
-            super::value::grow_for_push(items);
-        }
-        items.push(value.convert(&elem_ty));
-        return Ok(());
+        return items.push(value.convert(&elem_ty)).map_err(|f| (*span, f));
     }
-    store(&mut items[*index as usize], &elem_ty, rest, value, error_at)
+    items.update(*index as usize, |item| {
+        store(item, &elem_ty, rest, value, error_at)
+    })
 }
 
 /// The value `--set NAME=TEXT` gives the param declared as `name` of type `declared`, or the

@@ -10,6 +10,7 @@
 //! diagnostic at the expression that failed, with the FELT call stack attached.
 
 pub mod builtins;
+pub mod elements;
 mod eval;
 mod exec;
 

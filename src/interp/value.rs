@@ -5,6 +5,7 @@
 //! identity: `cachewrite` replaces the *state* it holds, while fields already read from it keep
 //! the state they were read from (docs/language.md "Domains and caches").
 
+use super::elements::Elements;
 use crate::check::types::{Shape, Type};
 use crate::failure::Failure;
 use crate::field::{Field, FieldKind};
@@ -41,8 +42,9 @@ pub enum Value {
     Particles(Arc<Particles>),
     /// One state of a cloud automaton (`cloudca`, `cloudstep`).
     CloudSim(Rc<crate::interp::builtins::clouds::CloudVar>),
-    /// Elements and the element type (needed for `{}` and for conversions).
-    Array(Rc<Vec<Value>>, Type),
+    /// Elements, holding their share of the memory budget, and the element type (needed
+    /// for `{}` and for conversions).
+    Array(Rc<Elements>, Type),
 }
 
 /// A cache variable: its domain and kind are fixed at declaration; `cachewrite` swaps the
@@ -87,27 +89,7 @@ impl Value {
     }
 
     pub fn array(items: Vec<Value>, elem: Type) -> Value {
-        Value::Array(Rc::new(items), elem)
-    }
-}
-
-/// Bytes an array's storage takes for `capacity` elements: every element is a whole `Value`
-/// (80 bytes, its largest variant being a matrix), whatever the array's element type.
-pub fn array_bytes(capacity: usize) -> f64 {
-    (capacity * std::mem::size_of::<Value>()) as f64
-}
-
-/// The bytes of the storage an array of `len` elements in `capacity` grows into when one more element is pushed, or `None`
-/// when it has room. The array doubles (from 4 elements), as the standard library's own
-/// growth does, but explicitly (`grow_for_push`), so the figure is what is really allocated.
-pub fn growth_bytes(len: usize, capacity: usize) -> Option<f64> {
-    (len == capacity).then(|| array_bytes((2 * capacity).max(4)))
-}
-
-/// Grows `items` to the capacity `growth_bytes` counted, when it is full.
-pub fn grow_for_push(items: &mut Vec<Value>) {
-    if items.len() == items.capacity() {
-        items.reserve_exact((2 * items.capacity()).max(4) - items.len());
+        Value::Array(Rc::new(Elements::new(items)), elem)
     }
 }
 
@@ -188,7 +170,7 @@ impl Value {
         }
     }
 
-    pub fn as_array(&self) -> Result<&Rc<Vec<Value>>, Failure> {
+    pub fn as_array(&self) -> Result<&Rc<Elements>, Failure> {
         match self {
             Value::Array(items, _) => Ok(items),
             other => Err(Failure::new(format!(
@@ -211,7 +193,7 @@ impl Value {
                     .iter()
                     .map(|v| v.clone().convert(target_elem))
                     .collect();
-                Value::Array(Rc::new(converted), (**target_elem).clone())
+                Value::array(converted, (**target_elem).clone())
             }
             (value, _) => value,
         }
@@ -382,43 +364,5 @@ impl fmt::Display for Value {
                 f.write_str("}")
             }
         }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// What an array push is charged is what the array then holds: the size of its element
-    /// type times the capacity the vector reports.
-    #[test]
-    fn array_growth_is_charged_at_the_size_of_the_storage_it_takes() {
-        let element = std::mem::size_of::<Value>();
-        let mut items: Vec<Value> = Vec::new();
-        let mut grown = 0;
-        for i in 0..1000 {
-            if let Some(bytes) = growth_bytes(items.len(), items.capacity()) {
-                grow_for_push(&mut items);
-                assert_eq!(
-                    bytes,
-                    (element * items.capacity()) as f64,
-                    "at {i} elements"
-                );
-                grown += 1;
-            }
-            items.push(Value::Float(i as f64));
-            assert!(items.len() <= items.capacity());
-        }
-        // 4, 8, ..., 1024: nine growths, and the doubling keeps an element at most 2 slots.
-        assert_eq!(grown, 9);
-        assert_eq!(items.capacity(), 1024);
-        let attribute: Vec<Value> = [1.0f32; 300]
-            .iter()
-            .map(|&v| Value::Float(v as f64))
-            .collect();
-        assert_eq!(
-            array_bytes(attribute.len()),
-            (element * attribute.capacity()) as f64
-        );
     }
 }

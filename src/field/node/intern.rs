@@ -158,10 +158,34 @@ pub fn check_graph_memory() -> crate::failure::Outcome<()> {
     })
 }
 
+/// Checks that `nodes` nodes yet to be made and `bytes` of other storage (an array's) fit
+/// beside the live graphs in what is left of the budget: graphs and arrays of fields grow
+/// together, and each alone fitting says nothing of both. `what` names the request.
+pub fn check_beside_graphs(nodes: f64, bytes: f64, what: &str) -> crate::failure::Outcome<()> {
+    check_nodes_and(nodes, bytes, |live| match live {
+        0 => what.to_string(),
+        live => format!("{what}, beside field graphs of {live} nodes,"),
+    })
+}
+
+/// What a node costs in the budget (`NODE_BYTES`), for projections of graphs yet to be made.
+pub fn node_bytes() -> f64 {
+    NODE_BYTES as f64
+}
+
 /// Checks that the live nodes and `more` nodes yet to be made fit in what is left of the
 /// budget; `what` names them, given the live count.
 fn check_nodes(more: f64, what: impl Fn(usize) -> String) -> crate::failure::Outcome<()> {
-    let bytes = |count: usize| (count as f64 + more) * NODE_BYTES as f64;
+    check_nodes_and(more, 0.0, what)
+}
+
+/// `check_nodes` with `other` bytes besides the nodes.
+fn check_nodes_and(
+    more: f64,
+    other: f64,
+    what: impl Fn(usize) -> String,
+) -> crate::failure::Outcome<()> {
+    let bytes = |count: usize| (count as f64 + more) * NODE_BYTES as f64 + other;
     let fits =
         |count: usize| bytes(count) + crate::budget::used() as f64 <= crate::budget::limit() as f64;
     if fits(LENGTH.load(Ordering::Relaxed)) {

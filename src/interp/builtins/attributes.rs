@@ -167,6 +167,7 @@ fn read_attribute(
         .with_help(format!("read it with {other}")));
     }
     let Some(Value::Domain(domain)) = a.opt("d") else {
+        crate::interp::elements::check_array(values.len(), 0, "pointattr's array")?;
         return Ok(match values {
             Attribute::Float(v) => {
                 Value::array(v.iter().map(|&x| Value::Float(x)).collect(), Type::Float)

@@ -112,12 +112,7 @@ pub fn register(r: &mut Registry) {
          dropped as slivers",
         |_, a| {
             let l0 = a.get("l0")?.as_field()?;
-            let knives = a
-                .get("knives")?
-                .as_array()?
-                .iter()
-                .map(|k| k.as_field())
-                .collect::<Outcome<Vec<_>>>()?;
+            let knives = fields_of(a.get("knives")?)?;
             let Value::Domain(d) = a.get("d")? else {
                 return Err(Failure::new("expected a domain"));
             };
@@ -128,6 +123,21 @@ pub fn register(r: &mut Registry) {
             Ok(shapes(
                 geometry::knives::cut(&l0, &knives, d, least)?.pieces,
             ))
+        },
+    );
+    r.add(
+        "geometry",
+        &["cutall(scalarfield l0, scalarfield[] knives) -> scalarfield[]"],
+        "the level set l0 cut by every knife: 2^n level sets min(l0, ±k0, ±k1, ...), knife 0 \
+         deciding the most significant bit of the index and 0 meaning its positive side; \
+         refused before it starts when they would not fit in the memory budget",
+        |_, a| {
+            let l0 = a.get("l0")?.as_field()?;
+            let knives = fields_of(a.get("knives")?)?;
+            check_cut_fits(knives.len())?;
+            let sides = geometry::knives::sides(&l0, &knives)?;
+            let sides = sides.into_iter().map(Value::Field).collect();
+            Ok(Value::array(sides, crate::check::types::Type::ScalarField))
         },
     );
     r.add(
@@ -161,7 +171,38 @@ fn shapes(meshes: Vec<Mesh>) -> Value {
         .into_iter()
         .map(|m| Value::Shape(Rc::new(m)))
         .collect();
-    Value::Array(Rc::new(parts), crate::check::types::Type::Shape)
+    Value::array(parts, crate::check::types::Type::Shape)
+}
+
+fn fields_of(array: &Value) -> Outcome<Vec<Field>> {
+    array.as_array()?.iter().map(|k| k.as_field()).collect()
+}
+
+/// Refuses a `cutall` by `knives` knives before it starts when its level sets would not fit
+/// beside the live field graphs: each knife doubles them, so the last few knives decide, and
+/// building towards a limit that 24 knives pass by gigabytes only wastes the time.
+/// What they take: the `min` nodes (`side_nodes`), and per level set its slot in the array,
+/// the block its field owns, and its handle in the working lists of the last two knives.
+fn check_cut_fits(knives: usize) -> Outcome<()> {
+    use crate::interp::elements::{SLOT_BYTES, owned_bytes};
+    let nodes = geometry::knives::side_nodes(knives);
+    let sides = 2f64.powi(knives as i32);
+    let owned = owned_bytes(&Value::Field(Field::constant_scalar(0.0))) as f64;
+    let handle = std::mem::size_of::<Field>() as f64;
+    let bytes = sides * (SLOT_BYTES as f64 + owned + 1.5 * handle);
+    let count = if knives < 64 {
+        format!("{} level sets", 1u64 << knives)
+    } else {
+        format!("2^{knives} level sets")
+    };
+    let what = format!("cutall by {knives} knives ({count} and {nodes} field nodes)");
+    crate::field::node::check_beside_graphs(nodes, bytes, &what).map_err(|f| {
+        f.with_help(
+            "each knife doubles cutall's level sets: cut with fewer knives, use \
+             cutpieces(l0, knives, d), which meshes only the pieces that occur, or raise the \
+             budget with --memory-limit MB",
+        )
+    })
 }
 
 fn minimum_volume(v: f64) -> Outcome<f64> {

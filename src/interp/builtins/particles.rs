@@ -9,8 +9,9 @@ use crate::diagnostic::{Diagnostic, Stage};
 use crate::failure::{Failure, Outcome};
 use crate::field::{CompiledField, Field};
 use crate::interp::Interpreter;
+use crate::interp::elements::check_array;
 use crate::interp::registry::{Args, Registry};
-use crate::interp::value::{Value, array_bytes};
+use crate::interp::value::Value;
 use crate::particles::flame_splat::{SplatInto, splat_flame};
 use crate::particles::io::{self, FileKind};
 use crate::particles::pointfield::{Blend, PointField};
@@ -125,7 +126,7 @@ pub fn register(r: &mut Registry) {
         |_, a| {
             let set = particles_of(a.get("p")?)?;
             let values = set.floats(a.string("name")?)?;
-            crate::budget::check(array_bytes(values.len()), "an attribute array")?;
+            check_array(values.len(), 0, "getattr's array")?;
             let items = values.iter().map(|&v| Value::Float(v as f64)).collect();
             Ok(Value::array(items, crate::check::types::Type::Float))
         },
@@ -137,7 +138,7 @@ pub fn register(r: &mut Registry) {
         |_, a| {
             let set = particles_of(a.get("p")?)?;
             let values = set.vectors(a.string("name")?)?;
-            crate::budget::check(array_bytes(values.len()), "an attribute array")?;
+            check_array(values.len(), 0, "getvattr's array")?;
             let items = values
                 .iter()
                 .map(|v| Value::Vector(DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64)))
