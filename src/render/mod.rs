@@ -47,6 +47,8 @@ pub mod working_space;
 #[cfg(test)]
 mod testing;
 #[cfg(test)]
+mod frustum_tests;
+#[cfg(test)]
 mod tests;
 
 pub use camera::Camera;
