@@ -57,7 +57,11 @@ fn a_splatted_particle_lands_in_the_cell_the_camera_projects_it_to() {
         );
         let lines = lines_of(run_source("splat.felt", &script));
         let values: Vec<f64> = lines.iter().map(|l| numbers(l)[0]).collect();
-        assert_eq!(values, vec![1.0, 0.0, 0.0, 0.0, 0.0], "{p:?} in cell {cell:?}");
+        assert_eq!(
+            values,
+            vec![1.0, 0.0, 0.0, 0.0, 0.0],
+            "{p:?} in cell {cell:?}"
+        );
     }
 }
 
@@ -100,11 +104,26 @@ fn an_orthographic_frustum_is_a_box_that_reproduces_a_linear_field() {
 #[test]
 fn frustum_mistakes_are_errors_at_the_call() {
     let cases = [
-        ("scalarcache c = frustumcache(cam, 0, 9, 8, 8, 8);", "near distance must be positive, got 0"),
-        ("scalarcache c = frustumcache(cam, 2, 1, 8, 8, 8);", "far distance must be beyond its near distance 2, got 1"),
-        ("scalarcache c = frustumcache(cam, 1, 9, 0, 8, 8);", "width must be a positive whole number"),
-        ("scalarcache c = frustumcache(cam, 1, 9, 8, 8, 8, padding = -1);", "padding must be zero or more"),
-        ("scalarcache c = frustumcache(cam, 1, 9, 100000, 100000, 100000);", "over the memory budget"),
+        (
+            "scalarcache c = frustumcache(cam, 0, 9, 8, 8, 8);",
+            "near distance must be positive, got 0",
+        ),
+        (
+            "scalarcache c = frustumcache(cam, 2, 1, 8, 8, 8);",
+            "far distance must be beyond its near distance 2, got 1",
+        ),
+        (
+            "scalarcache c = frustumcache(cam, 1, 9, 0, 8, 8);",
+            "width must be a positive whole number",
+        ),
+        (
+            "scalarcache c = frustumcache(cam, 1, 9, 8, 8, 8, padding = -1);",
+            "padding must be zero or more",
+        ),
+        (
+            "scalarcache c = frustumcache(cam, 1, 9, 100000, 100000, 100000);",
+            "over the memory budget",
+        ),
         (
             "scalarcache c = frustumcache(cam, 1, 9, 8, 8, 8);\ncachewrite(c, scalarfield(1));\ncachesave(c, \"out.vdb\");",
             "cachesave cannot take a frustum cache",
@@ -121,7 +140,11 @@ fn frustum_mistakes_are_errors_at_the_call() {
     for (call, phrase) in cases {
         let outcome = run_source("broken.felt", &format!("{CAMERA}{call}\n"));
         assert!(!outcome.ok, "{call}");
-        assert!(outcome.rendered.contains(phrase), "{call}: {}", outcome.rendered);
+        assert!(
+            outcome.rendered.contains(phrase),
+            "{call}: {}",
+            outcome.rendered
+        );
         // The diagnostic points at the last line, the call that was wrong.
         let line = 1 + call.lines().count();
         assert!(

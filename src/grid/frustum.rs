@@ -258,7 +258,11 @@ impl Frustum {
         let clamp = |v: f64, lo: f64, hi: f64| if v.is_nan() { lo } else { v.clamp(lo, hi) };
         let corner = |n: usize| {
             let pick = |a: usize, bit: usize| {
-                let v = if n & bit != 0 { region.max[a] } else { region.min[a] };
+                let v = if n & bit != 0 {
+                    region.max[a]
+                } else {
+                    region.min[a]
+                };
                 clamp(v, -f64::MAX, f64::MAX)
             };
             self.camera_coordinates(DVec3::new(pick(0, 1), pick(1, 2), pick(2, 4)))

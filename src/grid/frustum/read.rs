@@ -68,8 +68,13 @@ impl GridSource for FrustumRead {
             let end = (start + BLOCK).min(n);
             let m = end - start;
             let q = self.mapped(&xs[start..end], &ys[start..end], &zs[start..end]);
-            self.grid
-                .sample(interp, &q[0][..m], &q[1][..m], &q[2][..m], &mut block[..m * width]);
+            self.grid.sample(
+                interp,
+                &q[0][..m],
+                &q[1][..m],
+                &q[2][..m],
+                &mut block[..m * width],
+            );
             for c in 0..width {
                 out[c * n + start..c * n + end].copy_from_slice(&block[c * m..(c + 1) * m]);
             }
@@ -92,7 +97,8 @@ impl GridSource for FrustumRead {
                 let p = DVec3::new(xs[start + i], ys[start + i], zs[start + i]);
                 let jacobian = self.frustum.jacobian(p);
                 for c in 0..width {
-                    let g = DVec3::from_array(std::array::from_fn(|a| by_index[(c * 3 + a) * m + i]));
+                    let g =
+                        DVec3::from_array(std::array::from_fn(|a| by_index[(c * 3 + a) * m + i]));
                     // Row `a` of the Jacobian is the gradient of index coordinate `a`.
                     let world = jacobian.transpose() * g;
                     for j in 0..3 {

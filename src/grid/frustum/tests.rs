@@ -41,10 +41,20 @@ fn random_frustum(random: &mut SplitMix) -> Frustum {
             random.sign() * random.range(0.5, 1.0),
         );
     let ortho = (random.below(3) == 0).then(|| random.range(0.5, 4.0));
-    let v = view(eye, lookat, random.range(10.0, 120.0), random.range(0.5, 2.0), ortho);
+    let v = view(
+        eye,
+        lookat,
+        random.range(10.0, 120.0),
+        random.range(0.5, 2.0),
+        ortho,
+    );
     let near = random.range(0.05, 1.0);
     let far = near + random.range(0.1, 6.0);
-    let pixels = [1 + random.below(40), 1 + random.below(30), 1 + random.below(20)];
+    let pixels = [
+        1 + random.below(40),
+        1 + random.below(30),
+        1 + random.below(20),
+    ];
     Frustum::new(v, near, far, pixels, random.below(3), 1).unwrap()
 }
 
@@ -57,7 +67,10 @@ fn index_and_world_points_map_back_to_themselves() {
         for _ in 0..50 {
             let q = DVec3::new(x * random.unit(), y * random.unit(), z * random.unit());
             let back = frustum.world_to_index(frustum.index_to_world(q));
-            assert!((back - q).abs().max_element() < 1e-8, "{q} came back as {back}");
+            assert!(
+                (back - q).abs().max_element() < 1e-8,
+                "{q} came back as {back}"
+            );
         }
     }
 }
@@ -75,8 +88,8 @@ fn the_jacobian_is_the_derivative_of_the_world_to_index_map() {
         for j in 0..3 {
             let mut step = DVec3::ZERO;
             step[j] = h;
-            let difference = (frustum.world_to_index(p + step) - frustum.world_to_index(p - step))
-                / (2.0 * h);
+            let difference =
+                (frustum.world_to_index(p + step) - frustum.world_to_index(p - step)) / (2.0 * h);
             for m in 0..3 {
                 let exact = jacobian.row(m)[j];
                 assert!(
@@ -106,7 +119,8 @@ fn index_boxes_hold_the_index_of_every_point_of_their_world_boxes() {
         let [x, y, z] = frustum.cells().map(|n| n as f64);
         let reach = (DVec3::splat(-1.0), DVec3::new(x + 1.0, y + 1.0, z + 1.0));
         for _ in 0..200 {
-            let mut p = region.min + 2.0 * half * DVec3::new(random.unit(), random.unit(), random.unit());
+            let mut p =
+                region.min + 2.0 * half * DVec3::new(random.unit(), random.unit(), random.unit());
             for axis in 0..3 {
                 match random.below(6) {
                     0 => p[axis] = region.min[axis],
@@ -129,7 +143,9 @@ fn index_boxes_hold_the_index_of_every_point_of_their_world_boxes() {
 
 /// A cache over `frustum` of `field`, as `cachewrite` makes it, and its read at world points.
 fn frustum_cache(frustum: &Frustum, field: &Field, background: f64) -> (Arc<Cache>, FrustumRead) {
-    let composed = field.compose(&frustum.index_to_world_field().unwrap()).unwrap();
+    let composed = field
+        .compose(&frustum.index_to_world_field().unwrap())
+        .unwrap();
     let cache = Arc::new(
         Cache::from_field(
             frustum.index_domain().unwrap(),
@@ -212,7 +228,13 @@ fn the_gradient_of_a_read_is_the_derivative_of_its_values() {
             (1 + random.below(8)) as f64,
             (1 + random.below(6)) as f64,
         );
-        let q = cell + 0.5 + DVec3::new(random.range(0.1, 0.4), random.range(0.1, 0.4), random.range(0.1, 0.4));
+        let q = cell
+            + 0.5
+            + DVec3::new(
+                random.range(0.1, 0.4),
+                random.range(0.1, 0.4),
+                random.range(0.1, 0.4),
+            );
         let p = frustum.index_to_world(q);
         let mut gradient = [0.0; 3];
         read.sample_gradient(Interp::Linear, &[p.x], &[p.y], &[p.z], &mut gradient);
@@ -238,7 +260,9 @@ fn the_gradient_of_a_read_is_the_derivative_of_its_values() {
 fn bad_frustums_are_refused_with_what_was_wrong() {
     let v = view(DVec3::new(0.0, 0.0, 4.0), DVec3::ZERO, 40.0, 1.0, None);
     let message = |near: f64, far: f64, pixels: [usize; 3], padding: usize| {
-        Frustum::new(v, near, far, pixels, padding, 1).unwrap_err().message
+        Frustum::new(v, near, far, pixels, padding, 1)
+            .unwrap_err()
+            .message
     };
     assert!(message(0.0, 1.0, [4, 4, 4], 0).contains("near distance must be positive, got 0"));
     assert!(message(-1.0, 1.0, [4, 4, 4], 0).contains("must be positive, got -1"));

@@ -23,8 +23,10 @@ use std::sync::Arc;
 pub fn register(r: &mut Registry) {
     r.add(
         "caches",
-        &["frustumcache(camera cam, float near, float far, int width, int height, int depth, \
-           float background?, int padding?) -> scalarcache"],
+        &[
+            "frustumcache(camera cam, float near, float far, int width, int height, int depth, \
+           float background?, int padding?) -> scalarcache",
+        ],
         "a scalarcache whose cell (i, j, k) is pixel (i, j) of cam's width x height image at \
          depth slice k of depth slices between near and far (uniform in depth); padding adds \
          cells beyond the image's edges",
@@ -35,8 +37,10 @@ pub fn register(r: &mut Registry) {
     );
     r.add(
         "caches",
-        &["frustumvectorcache(camera cam, float near, float far, int width, int height, \
-           int depth, vector background?, int padding?) -> vectorcache"],
+        &[
+            "frustumvectorcache(camera cam, float near, float far, int width, int height, \
+           int depth, vector background?, int padding?) -> vectorcache",
+        ],
         "a vectorcache over the cells of a camera's frustum, as frustumcache",
         |_, a| {
             let background = match a.opt("background") {
@@ -77,9 +81,8 @@ fn new_frustum_cache(a: &Args, shape: Shape, background: Vec<f64>) -> Outcome<Va
     ];
     let padding = match a.opt_int("padding")? {
         None => 0,
-        Some(n) => usize::try_from(n).map_err(|_| {
-            Failure::new(format!("padding must be zero or more pixels, found {n}"))
-        })?,
+        Some(n) => usize::try_from(n)
+            .map_err(|_| Failure::new(format!("padding must be zero or more pixels, found {n}")))?,
     };
     let view = view_of(camera, pixels[0], pixels[1]);
     let frustum = Frustum::new(
