@@ -8,7 +8,7 @@ use crate::field::noise::NoiseKind;
 use crate::field::{CompiledField, Field};
 use crate::grid::cache::Cache;
 use crate::grid::domain::Domain;
-use crate::grid::frustum::{Frustum, FrustumRead, View};
+use crate::grid::frustum::{Frustum, FrustumRead};
 use crate::render::settings::{Integrator, RenderSettings};
 use crate::render::{Camera, Image, Light, Scene, render};
 use crate::sample::{Aabb, FieldSampler, GridSource};
@@ -21,20 +21,6 @@ const IMAGE: usize = 23;
 
 fn camera() -> Camera {
     Camera::new(DVec3::new(0.4, 0.6, 3.0), DVec3::ZERO, DVec3::Y, 40.0).unwrap()
-}
-
-fn view_of(camera: &Camera, width: usize, height: usize) -> View {
-    let (right, up, forward) = camera.axes();
-    let (half_width, half_height) = camera.half_extent(width, height);
-    View {
-        eye: camera.eye,
-        right,
-        up,
-        forward,
-        half_width,
-        half_height,
-        orthographic: camera.is_orthographic(),
-    }
 }
 
 /// A lumpy ball of smoke: smooth enough that trilinear reads converge as cells shrink.
@@ -64,7 +50,7 @@ fn smoke() -> Field {
 /// `field` cached over a frustum of `pixels` cells from near 2 to far 4.2, read at world points.
 fn in_frustum(field: &Field, pixels: [usize; 3]) -> CompiledField {
     let frustum = Frustum::new(
-        view_of(&camera(), pixels[0], pixels[1]),
+        camera().frustum_view(pixels[0], pixels[1]),
         2.0,
         4.2,
         pixels,
@@ -212,7 +198,7 @@ fn a_camera_filling_fog_is_closer_in_a_frustum_than_in_a_box_of_as_many_cells() 
     // Slices are uniform in depth, so a deep frustum spends its cells on depth: 16 x 16 pixels
     // (18 x 18 with the padding) by 128 slices of 0.23.
     let frustum = Frustum::new(
-        view_of(&fog_camera(), 16, 16),
+        fog_camera().frustum_view(16, 16),
         0.2,
         30.0,
         [16, 16, 128],
@@ -336,7 +322,7 @@ fn frustum_cell_centres_lie_on_the_rays_through_pixel_centres() {
     ] {
         let (width, height) = (7, 5);
         let frustum = Frustum::new(
-            view_of(&camera, width, height),
+            camera.frustum_view(width, height),
             1.0,
             5.0,
             [width, height, 4],

@@ -9,11 +9,10 @@
 use crate::check::types::Shape;
 use crate::failure::{Failure, Outcome};
 use crate::field::Field;
-use crate::grid::frustum::{Frustum, FrustumRead, View};
+use crate::grid::frustum::{Frustum, FrustumRead};
 use crate::interp::registry::{Args, Registry};
 use crate::interp::value::{CacheVar, Value};
 use crate::particles::Particles;
-use crate::render::Camera;
 use crate::sample::GridSource;
 use glam::DVec3;
 use std::cell::RefCell;
@@ -52,21 +51,6 @@ pub fn register(r: &mut Registry) {
     );
 }
 
-/// The numbers of `camera` a frustum of `width × height` pixels needs.
-fn view_of(camera: &Camera, width: usize, height: usize) -> View {
-    let (right, up, forward) = camera.axes();
-    let (half_width, half_height) = camera.half_extent(width, height);
-    View {
-        eye: camera.eye,
-        right,
-        up,
-        forward,
-        half_width,
-        half_height,
-        orthographic: camera.is_orthographic(),
-    }
-}
-
 fn new_frustum_cache(a: &Args, shape: Shape, background: Vec<f64>) -> Outcome<Value> {
     let Value::Camera(camera) = a.get("cam")? else {
         return Err(Failure::new("a frustum cache needs a camera"));
@@ -84,7 +68,7 @@ fn new_frustum_cache(a: &Args, shape: Shape, background: Vec<f64>) -> Outcome<Va
         Some(n) => usize::try_from(n)
             .map_err(|_| Failure::new(format!("padding must be zero or more pixels, found {n}")))?,
     };
-    let view = view_of(camera, pixels[0], pixels[1]);
+    let view = camera.frustum_view(pixels[0], pixels[1]);
     let frustum = Frustum::new(
         view,
         a.float("near")?,
