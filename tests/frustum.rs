@@ -106,6 +106,33 @@ fn an_orthographic_frustum_is_a_box_that_reproduces_a_linear_field() {
 }
 
 #[test]
+fn a_frustum_vector_cache_holds_colours_splatted_and_written() {
+    // A colour splatted at a cell centre reads back there; a written vectorfield is read back
+    // at its cells' centres through an orthographic frustum, where the map is affine.
+    let (width, height, depth, near, far) = (16.0, 12.0, 10.0, 2.0, 8.0);
+    let [x, y, z] = centre([3, 9, 6], width, height, depth, near, far);
+    let script = format!(
+        "{CAMERA}vectorcache c = frustumvectorcache(cam, {near}, {far}, {width}, {height}, {depth});\n\
+         particles p = addattr(particles({{({x:e}, {y:e}, {z:e})}}), \"Cd\", (0.25, 0.5, 1));\n\
+         splat(c, p, \"Cd\");\n\
+         print(probe(cacheread(c), ({x:e}, {y:e}, {z:e})));\n\
+         camera flat = camera((0, 0, 5), (0, 0, 0), (0, 1, 0), 60, ortho = 4);\n\
+         vectorcache v = frustumvectorcache(flat, 1, 9, 20, 10, 8, background = (0, 0, 7));\n\
+         cachewrite(v, identity() * 2);\n\
+         print(probe(cacheread(v), (0.3, -0.2, 1.1)));\n\
+         print(probe(cacheread(v), (0, 0, 20)));\n"
+    );
+    let lines = lines_of(run_source("colour.felt", &script));
+    let expected = [[0.25, 0.5, 1.0], [0.6, -0.4, 2.2], [0.0, 0.0, 7.0]];
+    for (line, want) in lines.iter().zip(expected) {
+        let got = numbers(line);
+        for c in 0..3 {
+            assert!((got[c] - want[c]).abs() < 1e-5, "{line} against {want:?}");
+        }
+    }
+}
+
+#[test]
 fn frustum_mistakes_are_errors_at_the_call() {
     let cases = [
         (
@@ -145,7 +172,10 @@ fn frustum_mistakes_are_errors_at_the_call() {
         let outcome = run_source("broken.felt", &format!("{CAMERA}{call}\n"));
         assert!(!outcome.ok, "{call}");
         assert!(
-            outcome.diagnostics.iter().any(|d| d.message.contains(phrase)),
+            outcome
+                .diagnostics
+                .iter()
+                .any(|d| d.message.contains(phrase)),
             "{call}: {}",
             outcome.rendered
         );
