@@ -156,6 +156,10 @@ fn frustum_mistakes_are_errors_at_the_call() {
             "over the memory budget",
         ),
         (
+            "scalarcache c = frustumcache(cam, 1, 9, 9223372036854775807, 1, 1, padding = 9223372036854775807);",
+            "over the memory budget",
+        ),
+        (
             "scalarcache c = frustumcache(cam, 1, 9, 8, 8, 8);\ncachewrite(c, scalarfield(1));\ncachesave(c, \"out.vdb\");",
             "cachesave cannot take a frustum cache",
         ),

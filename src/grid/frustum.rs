@@ -89,13 +89,15 @@ impl Frustum {
             ))
             .with_help("padding adds cells beyond the image's edges: a few pixels are enough"));
         }
-        let cells = (width + 2 * padding) as f64 * (height + 2 * padding) as f64 * depth as f64;
+        // In floating point: sizes near the integer range's end must not overflow here.
+        let padded = |n: usize| n as f64 + 2.0 * padding as f64;
+        let cells = padded(width) * padded(height) * depth as f64;
         crate::budget::check(
             cells * components as f64 * 4.0,
             &format!(
                 "a frustum cache of {} x {} x {depth} cells",
-                width + 2 * padding,
-                height + 2 * padding
+                padded(width),
+                padded(height)
             ),
         )?;
         let frustum = Frustum {
