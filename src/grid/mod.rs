@@ -6,6 +6,7 @@ pub mod dense;
 pub mod divfree;
 pub mod domain;
 pub mod fft;
+pub mod frustum;
 pub mod interp;
 pub mod points;
 pub mod profile;

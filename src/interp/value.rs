@@ -53,6 +53,8 @@ pub enum Value {
 pub struct CacheVar {
     pub shape: Shape,
     pub domain: Rc<Domain>,
+    /// For a frustum cache, the frustum whose cells `domain` indexes (`frustumcache`).
+    pub frustum: Option<Arc<crate::grid::frustum::Frustum>>,
     /// One value per component.
     pub background: Vec<f64>,
     pub state: RefCell<Option<Arc<Cache>>>,

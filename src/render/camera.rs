@@ -198,6 +198,20 @@ impl Camera {
         self.ortho_width.is_some()
     }
 
+    /// What a frustum cache of `width × height` pixels needs of the camera.
+    pub fn frustum_view(&self, width: usize, height: usize) -> crate::grid::frustum::View {
+        let (half_width, half_height) = self.half_extent(width, height);
+        crate::grid::frustum::View {
+            eye: self.eye,
+            right: self.right,
+            up: self.true_up,
+            forward: self.forward,
+            half_width,
+            half_height,
+            orthographic: self.is_orthographic(),
+        }
+    }
+
     /// A ray generator for an image of `width × height` pixels.
     pub fn raster(&self, width: usize, height: usize) -> Raster {
         let (half_width, half_height) = self.half_extent(width, height);

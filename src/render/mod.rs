@@ -46,6 +46,8 @@ pub mod view;
 pub mod working_space;
 
 #[cfg(test)]
+mod frustum_tests;
+#[cfg(test)]
 mod testing;
 #[cfg(test)]
 mod tests;

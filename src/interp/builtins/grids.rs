@@ -163,7 +163,7 @@ pub fn register(r: &mut Registry) {
         |interp, a| {
             let read = ReadOptions::of(&a)?;
             let cache = load_checked(interp, &a, 1)?;
-            read.field(Arc::new(cache))
+            read.field(Arc::new(cache), None)
         },
     );
     r.add(
@@ -173,7 +173,7 @@ pub fn register(r: &mut Registry) {
         |interp, a| {
             let read = ReadOptions::of(&a)?;
             let cache = load_checked(interp, &a, 3)?;
-            read.field(Arc::new(cache))
+            read.field(Arc::new(cache), None)
         },
     );
 }
@@ -205,6 +205,12 @@ fn warn_length_change(
 }
 
 fn cachesave(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
+    super::frustum::refuse(
+        cache_var(&a)?,
+        "cachesave",
+        "a VDB file of a frustum needs OpenVDB's frustum transform, which felt does not write: \
+         cache the field over a domain for saving",
+    )?;
     let cache = written(&a)?;
     let (file, name) = split_grid_name(a.string("path")?)?;
     let vector = cache.width() == 3;
@@ -301,10 +307,24 @@ impl ReadOptions {
         })
     }
 
-    fn field(&self, cache: Arc<Cache>) -> Outcome<Value> {
+    /// The field reading `cache`, through `var`'s frustum when it has one.
+    fn field(&self, cache: Arc<Cache>, var: Option<&CacheVar>) -> Outcome<Value> {
         let grid: Arc<dyn GridSource> = match self.outside {
             Some(how) => Arc::new(OutsideRead::new(cache, how)),
             None => cache,
+        };
+        let grid = match var {
+            Some(var) => {
+                if self.outside == Some(Outside::Extrapolate) {
+                    super::frustum::refuse(
+                        var,
+                        "cacheread with outside = \"extrapolate\"",
+                        "read it with outside = \"background\" or \"hold\"",
+                    )?;
+                }
+                super::frustum::read_at_world(var, grid)
+            }
+            None => grid,
         };
         Ok(Value::Field(Field::from_grid(
             grid,
@@ -348,6 +368,7 @@ fn new_cache(a: &Args, shape: Shape, background: Vec<f64>) -> Outcome<Value> {
     Ok(Value::Cache(Rc::new(CacheVar {
         shape,
         domain: d.clone(),
+        frustum: None,
         background,
         state: RefCell::new(None),
     })))
@@ -365,7 +386,7 @@ pub fn cache_var(a: &Args) -> Outcome<&Rc<CacheVar>> {
 
 fn cachewrite(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
     let var = cache_var(&a)?;
-    let field = a.get("f")?.as_field()?;
+    let field = super::frustum::field_in_cells(var, &a.get("f")?.as_field()?)?;
     let width = field.kind().width();
     let label = format!(
         "cachewrite at {}",
@@ -454,7 +475,7 @@ fn cacheread(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
     let read = ReadOptions::of(&a)?;
     let state = var.state.borrow().clone();
     match state {
-        Some(cache) => read.field(cache),
+        Some(cache) => read.field(cache, Some(var)),
         None => {
             interp.warnings.push(
                 Diagnostic::warning(

@@ -7,6 +7,7 @@ mod colour;
 mod core;
 mod fields;
 pub mod format;
+mod frustum;
 mod geometry;
 pub mod grids;
 mod math;
@@ -25,6 +26,7 @@ pub fn register_all(r: &mut Registry) {
     math::register(r);
     fields::register(r);
     grids::register(r);
+    frustum::register(r);
     modeling::register(r);
     rendering::register(r);
     sky::register(r);

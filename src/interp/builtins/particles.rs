@@ -364,8 +364,9 @@ fn splat(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
         }
     };
     let previous = var.state.borrow().clone();
+    let placed = super::frustum::particles_in_cells(var, set)?;
     let (cache, report) = crate::particles::splat::splat(
-        set,
+        &placed,
         deposit,
         kernel,
         &var.domain,
@@ -532,6 +533,13 @@ fn flamesplat(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
         }
         None => None,
     };
+    for var in std::iter::once(count_var).chain(color_var) {
+        super::frustum::refuse(
+            var,
+            "flamesplat",
+            "make the dots with flamewisp and splat them into the frustum cache",
+        )?;
+    }
     let count_before = count_var.state.borrow().clone();
     let color_before = color_var.map(|c| c.state.borrow().clone());
     let count_into = SplatInto {
