@@ -210,7 +210,10 @@ mod tests {
                 );
                 exact += usize::from(heap_block(request) == chunk);
             }
-            assert!(exact > 150, "only {exact} of 299 requests took the predicted chunk");
+            assert!(
+                exact > 150,
+                "only {exact} of 299 requests took the predicted chunk"
+            );
         }
     }
 }
