@@ -506,9 +506,11 @@ fn photon_refine(cells: usize) -> usize {
 
 const MOST_PHOTON_CELLS: usize = 1 << 24;
 
-/// Bytes a photon cell needs at most: two halves, the first scatterings, the masses and the
-/// sums.
-const PHOTON_CELL_BYTES: usize = 4 * std::mem::size_of::<DVec3>() + std::mem::size_of::<f64>();
+/// Bytes a photon cell needs at most: two halves, the first scatterings, the masses, the sums
+/// and its bin of the image.
+const PHOTON_CELL_BYTES: usize = 4 * std::mem::size_of::<DVec3>()
+    + std::mem::size_of::<f64>()
+    + std::mem::size_of::<Option<(usize, f64)>>();
 
 /// The photons for a grid of `needed` cells: at first a quarter of the paths the cells would
 /// gather, doubling until the noise the camera would see is within 7 %, at most four times

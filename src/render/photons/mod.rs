@@ -47,6 +47,9 @@ const PHOTON_STREAM: u64 = 0x9407_0a5e_5ca7_7e12;
 /// Photons per chunk: the unit of parallel work and of the deterministic sum.
 const CHUNK: u64 = 256;
 
+/// Chunks traced in parallel before their sums are added.
+const BATCH_CHUNKS: usize = 64;
+
 /// The cells a tally covers: the indirect grid's.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Cells {
@@ -180,45 +183,48 @@ impl Tally {
             let jobs: Vec<(usize, u64)> = (0..inputs.lights.len())
                 .flat_map(|light| (done..chunks).map(move |chunk| (light, chunk)))
                 .collect();
-            let sums: Vec<Option<Sums>> = jobs
-                .par_iter()
-                .map_init(
-                    || inputs.arrivals.medium(),
-                    |medium, &(light, chunk)| {
-                        if crate::interrupt::requested() {
-                            return None;
+            // A batch of chunks at a time, so the chunks' sums held at once stay few.
+            for batch in jobs.chunks(BATCH_CHUNKS) {
+                let sums: Vec<Option<Sums>> = batch
+                    .par_iter()
+                    .map_init(
+                        || inputs.arrivals.medium(),
+                        |medium, &(light, chunk)| {
+                            if crate::interrupt::requested() {
+                                return None;
+                            }
+                            let mut sums = Sums::default();
+                            for k in chunk * CHUNK..(chunk + 1) * CHUNK {
+                                let mut random =
+                                    PathRandom::new(inputs.seed ^ PHOTON_STREAM, light as u64, k);
+                                let (ray, power) = sources[light].emit(sphere, &mut random);
+                                let photon = Photon {
+                                    inputs,
+                                    cells: &cells,
+                                    importance,
+                                    power,
+                                    key: (light as u64) << 48 ^ k,
+                                };
+                                photon.walk(medium, ray, random, &mut sums);
+                            }
+                            Some(sums)
+                        },
+                    )
+                    .collect();
+                for (&(_, chunk), sums) in batch.iter().zip(sums) {
+                    let sums = sums.ok_or_else(|| Failure::new("interrupted"))?;
+                    // A hash map's order is not fixed: add each chunk's cells in index order.
+                    let mut sums: Vec<_> = sums.into_iter().collect();
+                    sums.sort_unstable_by_key(|(index, _)| *index);
+                    let half = &mut halves[(chunk % 2) as usize];
+                    for (key, value) in sums {
+                        if !value.is_finite() {
+                            continue;
                         }
-                        let mut sums = Sums::default();
-                        for k in chunk * CHUNK..(chunk + 1) * CHUNK {
-                            let mut random =
-                                PathRandom::new(inputs.seed ^ PHOTON_STREAM, light as u64, k);
-                            let (ray, power) = sources[light].emit(sphere, &mut random);
-                            let photon = Photon {
-                                inputs,
-                                cells: &cells,
-                                importance,
-                                power,
-                                key: (light as u64) << 48 ^ k,
-                            };
-                            photon.walk(medium, ray, random, &mut sums);
+                        match key % 2 {
+                            0 => half[key / 2] += value,
+                            _ => direct[key / 2] += value.element_sum(),
                         }
-                        Some(sums)
-                    },
-                )
-                .collect();
-            for (&(_, chunk), sums) in jobs.iter().zip(sums) {
-                let sums = sums.ok_or_else(|| Failure::new("interrupted"))?;
-                // A hash map's order is not fixed: add each chunk's cells in index order.
-                let mut sums: Vec<_> = sums.into_iter().collect();
-                sums.sort_unstable_by_key(|(index, _)| *index);
-                let half = &mut halves[(chunk % 2) as usize];
-                for (key, value) in sums {
-                    if !value.is_finite() {
-                        continue;
-                    }
-                    match key % 2 {
-                        0 => half[key / 2] += value,
-                        _ => direct[key / 2] += value.element_sum(),
                     }
                 }
             }
