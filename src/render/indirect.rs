@@ -71,9 +71,7 @@ impl Default for IndirectSettings {
 /// The indirect light scattered towards the camera, `S`, at the centre of each cell of a grid
 /// on the render box.
 pub struct IndirectGrid {
-    bounds: Aabb,
-    counts: [usize; 3],
-    cell: DVec3,
+    cells: Cells,
     /// Per cell (x fastest), per colour channel; zero where no dense sample can read it.
     radiance: Vec<DVec3>,
     /// The lights' multiply scattered light, from photons: per cell `∫σs·S dx` and `∫σs dx`.
@@ -258,9 +256,7 @@ impl IndirectGrid {
             }
         }
         Ok(IndirectGrid {
-            bounds,
-            counts,
-            cell,
+            cells: Cells::on(bounds, counts),
             radiance,
             photons: tally,
             estimated: needed.len(),
@@ -275,33 +271,12 @@ impl IndirectGrid {
 
     /// `S` at `p`: a trilinear blend of the centres around it, clamped at the box's faces.
     pub fn at(&self, p: DVec3) -> DVec3 {
-        let mut base = [0usize; 3];
-        let mut frac = [0.0f64; 3];
-        for a in 0..3 {
-            let local = (p[a] - self.bounds.min[a]) / self.cell[a] - 0.5;
-            let top = (self.counts[a] - 1) as f64;
-            let clamped = local.clamp(0.0, top);
-            let floor = clamped.floor().min((top - 1.0).max(0.0));
-            base[a] = floor as usize;
-            frac[a] = clamped - floor;
-        }
-        let mut sum = DVec3::ZERO;
-        for corner in 0..8 {
-            let mut c = base;
-            let mut weight = 1.0;
-            for a in 0..3 {
-                let upper = (corner >> a) & 1 == 1;
-                if upper {
-                    c[a] = (c[a] + 1).min(self.counts[a] - 1);
-                    weight *= frac[a];
-                } else {
-                    weight *= 1.0 - frac[a];
-                }
-            }
-            if weight > 0.0 {
-                sum += self.radiance[flatten(c, self.counts)] * weight;
-            }
-        }
+        let sum = self
+            .cells
+            .corners(p)
+            .into_iter()
+            .map(|(index, weight)| self.radiance[index] * weight)
+            .sum::<DVec3>();
         match &self.photons {
             Some(tally) => sum + tally.at(p),
             None => sum,
@@ -530,10 +505,6 @@ fn unflatten(index: usize, counts: [usize; 3]) -> [usize; 3] {
         (index / counts[0]) % counts[1],
         index / (counts[0] * counts[1]),
     ]
-}
-
-fn flatten(c: [usize; 3], counts: [usize; 3]) -> usize {
-    c[0] + counts[0] * (c[1] + counts[1] * c[2])
 }
 
 #[cfg(test)]

@@ -72,6 +72,33 @@ impl Cells {
     fn flatten(&self, c: [usize; 3]) -> usize {
         c[0] + self.counts[0] * (c[1] + self.counts[1] * c[2])
     }
+
+    /// The centres a trilinear blend at `p` reads and their weights (clamped at the faces).
+    pub fn corners(&self, p: DVec3) -> [(usize, f64); 8] {
+        let mut base = [0usize; 3];
+        let mut frac = [0.0f64; 3];
+        for a in 0..3 {
+            let local = (p[a] - self.bounds.min[a]) / self.cell[a] - 0.5;
+            let top = (self.counts[a] - 1) as f64;
+            let clamped = local.clamp(0.0, top);
+            let floor = clamped.floor().min((top - 1.0).max(0.0));
+            base[a] = floor as usize;
+            frac[a] = clamped - floor;
+        }
+        std::array::from_fn(|corner| {
+            let mut c = base;
+            let mut weight = 1.0;
+            for a in 0..3 {
+                if (corner >> a) & 1 == 1 {
+                    c[a] = (c[a] + 1).min(self.counts[a] - 1);
+                    weight *= frac[a];
+                } else {
+                    weight *= 1.0 - frac[a];
+                }
+            }
+            (self.flatten(c), weight)
+        })
+    }
     /// The cell holding `p` (clamped to the grid).
     fn index(&self, p: DVec3) -> usize {
         let mut c = [0usize; 3];
@@ -280,34 +307,10 @@ impl Tally {
     /// The photons' `S` at `p`: the trilinear blend of the cells' `∫σs·S dx` around it over
     /// the same blend of their `∫σs dx`; zero where the blended cells hold no medium.
     pub fn at(&self, p: DVec3) -> DVec3 {
-        let cells = &self.cells;
-        let mut base = [0usize; 3];
-        let mut frac = [0.0f64; 3];
-        for a in 0..3 {
-            let local = (p[a] - cells.bounds.min[a]) / cells.cell[a] - 0.5;
-            let top = (cells.counts[a] - 1) as f64;
-            let clamped = local.clamp(0.0, top);
-            let floor = clamped.floor().min((top - 1.0).max(0.0));
-            base[a] = floor as usize;
-            frac[a] = clamped - floor;
-        }
         let (mut scattered, mut mass) = (DVec3::ZERO, DVec3::ZERO);
-        for corner in 0..8 {
-            let mut c = base;
-            let mut weight = 1.0;
-            for a in 0..3 {
-                if (corner >> a) & 1 == 1 {
-                    c[a] = (c[a] + 1).min(cells.counts[a] - 1);
-                    weight *= frac[a];
-                } else {
-                    weight *= 1.0 - frac[a];
-                }
-            }
-            if weight > 0.0 {
-                let index = cells.flatten(c);
-                scattered += self.scattered[index] * weight;
-                mass += self.mass[index] * weight;
-            }
+        for (index, weight) in self.cells.corners(p) {
+            scattered += self.scattered[index] * weight;
+            mass += self.mass[index] * weight;
         }
         let held = mass.cmpgt(DVec3::ZERO);
         DVec3::select(
