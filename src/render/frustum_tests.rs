@@ -58,6 +58,13 @@ fn in_frustum(field: &Field, pixels: [usize; 3]) -> CompiledField {
         1,
     )
     .unwrap();
+    let (read, _) = cached(field, frustum, "frustum");
+    CompiledField::new(&Field::from_linear_grid(read).unwrap())
+}
+
+/// `field` filled into a cache over `frustum`'s cells (at their world centres), read at world
+/// points; and the cache itself.
+fn cached(field: &Field, frustum: Frustum, name: &str) -> (Arc<dyn GridSource>, Arc<Cache>) {
     let composed = field
         .compose(&frustum.index_to_world_field().unwrap())
         .unwrap();
@@ -66,11 +73,12 @@ fn in_frustum(field: &Field, pixels: [usize; 3]) -> CompiledField {
         1,
         CompiledField::shared(&composed),
         vec![0.0],
-        "frustum".into(),
+        name.into(),
     )
     .unwrap();
-    let read: Arc<dyn GridSource> = Arc::new(FrustumRead::new(Arc::new(frustum), Arc::new(cache)));
-    CompiledField::new(&Field::from_linear_grid(read).unwrap())
+    let cache = Arc::new(cache);
+    let read: Arc<dyn GridSource> = Arc::new(FrustumRead::new(Arc::new(frustum), cache.clone()));
+    (read, cache)
 }
 
 fn settings(integrator: Integrator) -> RenderSettings {
@@ -207,19 +215,7 @@ fn a_camera_filling_fog_is_closer_in_a_frustum_than_in_a_box_of_as_many_cells() 
     )
     .unwrap();
     let cells = frustum.index_domain().unwrap().cell_count();
-    let composed = field
-        .compose(&frustum.index_to_world_field().unwrap())
-        .unwrap();
-    let cache = Cache::from_field(
-        frustum.index_domain().unwrap(),
-        1,
-        CompiledField::shared(&composed),
-        vec![0.0],
-        "fog".into(),
-    )
-    .unwrap();
-    let cache = Arc::new(cache);
-    let read: Arc<dyn GridSource> = Arc::new(FrustumRead::new(Arc::new(frustum), cache.clone()));
+    let (read, cache) = cached(&field, frustum, "fog");
     let in_frustum = rms(
         &render_fog(&CompiledField::new(&Field::from_linear_grid(read).unwrap())),
         &exact,
