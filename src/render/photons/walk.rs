@@ -24,6 +24,9 @@ pub(super) struct Photon<'a> {
 /// The most copies one scattering splits a photon into.
 const MOST_COPIES: u32 = 32;
 
+/// The most copies one photon's walk follows.
+const MOST_WALKED: u64 = 1 << 17;
+
 /// A photon copy still to walk: where it scattered, the way it had travelled, its weight and
 /// the scatterings behind it.
 struct Pending {
@@ -72,7 +75,11 @@ impl Photon<'_> {
             };
             self.fly(medium, ray, weight, order, &mut random, walk);
             copies += 1;
-            if copies > u64::from(MOST_COPIES) * 4096 {
+            // A bound on one walk's work: the weight window keeps copies near the camera's
+            // importance, so only a walk that keeps returning from deep inside a vast dense
+            // medium comes near it; the copies left then are dropped (a loss of light no
+            // test scene reaches), not walked without end.
+            if copies > MOST_WALKED {
                 return;
             }
         }
