@@ -10,7 +10,8 @@ use crate::grid::cache::Cache;
 use crate::grid::domain::Domain;
 use crate::grid::frustum::{Frustum, FrustumRead};
 use crate::render::settings::{Integrator, RenderSettings};
-use crate::render::{Camera, Image, Light, Scene, render};
+use crate::render::testing::plain_scene;
+use crate::render::{Camera, Image, Light, render};
 use crate::sample::{Aabb, FieldSampler, GridSource};
 use crate::test_random::SplitMix;
 use glam::DVec3;
@@ -95,15 +96,8 @@ fn settings(integrator: Integrator) -> RenderSettings {
 }
 
 fn render_density(density: &CompiledField, integrator: Integrator) -> Image {
-    let scene = Scene {
-        density,
-        color: None,
-        emission: None,
-        holdout: None,
-        velocity: None,
-        camera: camera(),
-        lights: vec![Light::distant(DVec3::new(-0.3, -1.0, -0.5), DVec3::ONE).unwrap()],
-    };
+    let sun = Light::distant(DVec3::new(-0.3, -1.0, -0.5), DVec3::ONE).unwrap();
+    let scene = plain_scene(density, camera(), vec![sun]);
     render(&scene, &settings(integrator)).unwrap()
 }
 
@@ -178,15 +172,8 @@ fn fog() -> Field {
 }
 
 fn render_fog(density: &CompiledField) -> Image {
-    let scene = Scene {
-        density,
-        color: None,
-        emission: None,
-        holdout: None,
-        velocity: None,
-        camera: fog_camera(),
-        lights: vec![Light::distant(DVec3::new(-0.4, -0.5, -1.0), DVec3::ONE).unwrap()],
-    };
+    let sun = Light::distant(DVec3::new(-0.4, -0.5, -1.0), DVec3::ONE).unwrap();
+    let scene = plain_scene(density, fog_camera(), vec![sun]);
     let settings = RenderSettings {
         step: Some(0.05),
         kappa: DVec3::splat(0.5),

@@ -4,7 +4,7 @@
 //! for any thread count, and a render with nothing to light it builds no grid.
 
 use crate::render::settings::{Integrator, RenderSettings};
-use crate::render::testing::{Ball, Pieces};
+use crate::render::testing::{Ball, Pieces, plain_scene};
 use crate::render::{Camera, Image, Light, Phase, Scene, render, render_with_stats};
 use crate::sample::Aabb;
 use glam::DVec3;
@@ -32,15 +32,7 @@ fn settings(size: usize) -> RenderSettings {
 }
 
 fn scene<'a>(density: &'a Pieces, lights: Vec<Light>) -> Scene<'a> {
-    Scene {
-        density,
-        color: None,
-        emission: None,
-        holdout: None,
-        velocity: None,
-        camera: camera(),
-        lights,
-    }
+    plain_scene(density, camera(), lights)
 }
 
 /// The mean of one channel over the pixels the medium covers.

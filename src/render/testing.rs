@@ -140,3 +140,21 @@ pub fn chord_in_ball(origin: DVec3, dir: DVec3, centre: DVec3, radius: f64) -> f
     let (t0, t1) = ((-b - root).max(0.0), -b + root);
     (t1 - t0).max(0.0)
 }
+
+/// A scene of `density` alone (no colour, emission, holdout or motion) seen by `camera` under
+/// `lights`: what most render tests draw.
+pub fn plain_scene<'a>(
+    density: &'a dyn crate::sample::FieldSampler,
+    camera: super::Camera,
+    lights: Vec<super::Light>,
+) -> super::Scene<'a> {
+    super::Scene {
+        density,
+        color: None,
+        emission: None,
+        holdout: None,
+        velocity: None,
+        camera,
+        lights,
+    }
+}

@@ -6,6 +6,7 @@ pub mod clouds;
 mod colour;
 mod core;
 mod fields;
+mod flames;
 pub mod format;
 mod frustum;
 mod geometry;

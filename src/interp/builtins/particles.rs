@@ -1,5 +1,6 @@
 //! Particle builtins: construction, attributes and files; splatting into caches and
-//! point-attribute fields; wisps and 3D fractal flames (seed 004).
+//! point-attribute fields; wisps and 3D fractal flames (seed 004; the flames' work is in
+//! `flames.rs`).
 //!
 //! A particle set is a plain value: `addattr` returns a new set and leaves its argument as it
 //! was. Generators (`scatter`, `wisp`, `flamewisp`) are seeded by an explicit `seed`, so the
@@ -12,11 +13,10 @@ use crate::interp::Interpreter;
 use crate::interp::elements::check_array;
 use crate::interp::registry::{Args, Registry};
 use crate::interp::value::Value;
-use crate::particles::flame_splat::{SplatInto, splat_flame};
 use crate::particles::io::{self, FileKind};
 use crate::particles::pointfield::{Blend, PointField};
 use crate::particles::splat::{Deposit, Kernel};
-use crate::particles::{Particles, Values, chaos, flame, guide, scatter, wisp};
+use crate::particles::{Particles, Values, flame, guide, scatter, wisp};
 use crate::sample::{FieldSampler, GridSource};
 use glam::DVec3;
 use std::sync::Arc;
@@ -212,7 +212,7 @@ pub fn register(r: &mut Registry) {
         "count dots per guide from the chaos game over maps (picked by weight, each with its \
          colour), displaced by amount * displace, coloured (color + map colour)/2 or by the \
          running average of map colours; chains of iterations stamped steps after skip",
-        flamewisp,
+        super::flames::flamewisp,
     );
     r.add(
         "particles",
@@ -226,7 +226,7 @@ pub fn register(r: &mut Registry) {
          into c and their colours into colorcache, kernel \"trilinear\" (default) or \
          \"nearest\"; no dot is stored, and the count equals splat(c, flamewisp(...)) bit for \
          bit",
-        flamesplat,
+        super::flames::flamesplat,
     );
     r.add(
         "particles",
@@ -239,7 +239,7 @@ pub fn register(r: &mut Registry) {
     );
 }
 
-fn particles_of(v: &Value) -> Outcome<&Particles> {
+pub(super) fn particles_of(v: &Value) -> Outcome<&Particles> {
     match v {
         Value::Particles(p) => Ok(p),
         other => Err(Failure::new(format!(
@@ -249,23 +249,23 @@ fn particles_of(v: &Value) -> Outcome<&Particles> {
     }
 }
 
-fn vectors_of(v: &Value) -> Outcome<Vec<[f32; 3]>> {
+pub(super) fn vectors_of(v: &Value) -> Outcome<Vec<[f32; 3]>> {
     v.as_array()?
         .iter()
         .map(|item| Ok(item.as_vector()?.to_array().map(|c| c as f32)))
         .collect()
 }
 
-fn floats_of(v: &Value) -> Outcome<Vec<f64>> {
+pub(super) fn floats_of(v: &Value) -> Outcome<Vec<f64>> {
     v.as_array()?.iter().map(|item| item.as_float()).collect()
 }
 
-fn count_of(a: &Args, key: &str) -> Outcome<usize> {
+pub(super) fn count_of(a: &Args, key: &str) -> Outcome<usize> {
     let n = a.int(key)?;
     usize::try_from(n).map_err(|_| Failure::new(format!("{key} must not be negative, found {n}")))
 }
 
-fn seed_of(a: &Args) -> Outcome<u64> {
+pub(super) fn seed_of(a: &Args) -> Outcome<u64> {
     let n = a.int("seed")?;
     u64::try_from(n).map_err(|_| Failure::new(format!("a seed must not be negative, found {n}")))
 }
@@ -381,120 +381,14 @@ fn splat(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
 }
 
 /// Compiled fields of an optional argument.
-fn compiled(a: &Args, key: &str) -> Outcome<Option<CompiledField>> {
+pub(super) fn compiled(a: &Args, key: &str) -> Outcome<Option<CompiledField>> {
     a.opt(key)
         .map(|v| CompiledField::prepared(&v.as_field()?))
         .transpose()
 }
 
-/// A flame's arguments, shared by `flamewisp` and `flamesplat`.
-struct FlameArgs {
-    guides: Vec<guide::Guide>,
-    maps: Vec<CompiledField>,
-    weights: Vec<f64>,
-    colors: Vec<DVec3>,
-    displace: Option<CompiledField>,
-    color: Option<CompiledField>,
-    amount: f64,
-    iterations: usize,
-    skip: usize,
-    count: usize,
-    seed: u64,
-}
-
-impl FlameArgs {
-    fn read(a: &Args, call: &str) -> Outcome<FlameArgs> {
-        let guides = guide::guides(particles_of(a.get("guides")?)?)?;
-        let maps: Vec<CompiledField> = a
-            .get("maps")?
-            .as_array()?
-            .iter()
-            .map(|m| CompiledField::prepared(&m.as_field()?))
-            .collect::<Outcome<_>>()?;
-        let weights = floats_of(a.get("weights")?)?;
-        let colors: Vec<DVec3> = a
-            .get("colors")?
-            .as_array()?
-            .iter()
-            .map(|c| c.as_vector())
-            .collect::<Outcome<_>>()?;
-        if weights.len() != maps.len() || colors.len() != maps.len() {
-            return Err(Failure::new(format!(
-                "{call} has {} maps, {} weights and {} colors; give one weight and one color per map",
-                maps.len(),
-                weights.len(),
-                colors.len()
-            )));
-        }
-        let amount = a.opt_float("amount")?.unwrap_or(1.0);
-        if !amount.is_finite() {
-            return Err(Failure::new("amount must be finite"));
-        }
-        let skip = match a.opt_int("skip")? {
-            None => 20,
-            Some(n) if n >= 0 => n as usize,
-            Some(n) => {
-                return Err(Failure::new(format!(
-                    "skip must not be negative, found {n}"
-                )));
-            }
-        };
-        Ok(FlameArgs {
-            guides,
-            maps,
-            weights,
-            colors,
-            displace: compiled(a, "displace")?,
-            color: compiled(a, "color")?,
-            amount,
-            iterations: a.opt_positive_int("iterations")?.unwrap_or(1000),
-            skip,
-            count: count_of(a, "count")?,
-            seed: seed_of(a)?,
-        })
-    }
-
-    fn settings(&self) -> chaos::Settings<'_> {
-        chaos::Settings {
-            maps: self
-                .maps
-                .iter()
-                .zip(&self.weights)
-                .zip(&self.colors)
-                .map(|((f, &weight), &color)| chaos::Map {
-                    field: f as &dyn FieldSampler,
-                    weight,
-                    color,
-                })
-                .collect(),
-            displace: self.displace.as_ref().map(|f| f as &dyn FieldSampler),
-            amount: self.amount,
-            color: self.color.as_ref().map(|f| f as &dyn FieldSampler),
-            iterations: self.iterations,
-            skip: self.skip,
-        }
-    }
-}
-
-/// Warns when many steps of the chaos game left the finite world.
-fn warn_restarts(interp: &mut Interpreter, report: chaos::Report, dots: u64) {
-    if report.restarts * 100 > dots && dots > 0 {
-        interp.warnings.push(
-            Diagnostic::warning(
-                Stage::Runtime,
-                interp.call_span,
-                format!(
-                    "{} steps of the chaos game left the finite world and restarted their chains ({} dots made)",
-                    report.restarts, dots
-                ),
-            )
-            .with_help("a map that sends points far away wastes work; scale it down or lower its weight"),
-        );
-    }
-}
-
 /// Warns when particles fell outside a cache's domain.
-fn warn_outside(interp: &mut Interpreter, outside: u64, of: u64) {
+pub(super) fn warn_outside(interp: &mut Interpreter, outside: u64, of: u64) {
     if outside > 0 {
         interp.warnings.push(
             Diagnostic::warning(
@@ -507,79 +401,6 @@ fn warn_outside(interp: &mut Interpreter, outside: u64, of: u64) {
             .with_help("enlarge the cache's domain to hold every particle"),
         );
     }
-}
-
-fn flamewisp(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
-    let flame = FlameArgs::read(&a, "flamewisp")?;
-    let (set, report) = chaos::generate(&flame.guides, flame.count, flame.seed, &flame.settings())?;
-    warn_restarts(interp, report, set.len() as u64);
-    Ok(Value::Particles(Arc::new(set)))
-}
-
-fn flamesplat(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
-    let flame = FlameArgs::read(&a, "flamesplat")?;
-    let kernel = match a.opt("kernel") {
-        Some(k) => Kernel::parse(k.as_str()?)?,
-        None => Kernel::Trilinear,
-    };
-    let count_var = super::grids::cache_var(&a)?;
-    let color_var = match a.opt("colorcache") {
-        Some(Value::Cache(c)) => Some(c),
-        Some(other) => {
-            return Err(Failure::new(format!(
-                "colorcache must be a vectorcache, found {}",
-                other.type_of()
-            )));
-        }
-        None => None,
-    };
-    for var in std::iter::once(count_var).chain(color_var) {
-        super::frustum::refuse(
-            var,
-            "flamesplat",
-            "make the dots with flamewisp and splat them into the frustum cache",
-        )?;
-    }
-    let count_before = count_var.state.borrow().clone();
-    let color_before = color_var.map(|c| c.state.borrow().clone());
-    let count_into = SplatInto {
-        domain: &count_var.domain,
-        kernel,
-        background: &count_var.background,
-        previous: count_before.as_deref(),
-    };
-    let color_into = color_var.map(|c| SplatInto {
-        domain: &c.domain,
-        kernel,
-        background: &c.background,
-        previous: color_before.as_ref().and_then(|s| s.as_deref()),
-    });
-    let (caches, report) = splat_flame(
-        &flame.guides,
-        flame.count,
-        flame.seed,
-        &flame.settings(),
-        Some(&count_into),
-        color_into.as_ref(),
-    )?;
-    let dots = (flame.guides.len() * flame.count) as u64;
-    warn_restarts(interp, report, dots);
-    let label = format!("flamesplat at {}", interp.location(interp.call_span));
-    let mut warned = None;
-    for ((cache, splat), var) in caches
-        .into_iter()
-        .zip(std::iter::once(count_var).chain(color_var))
-    {
-        // Two caches on one domain miss the same dots: one warning. A flame's attractor has
-        // far-flung dots a domain framing the shot crops; only more than 1 % is a mistake.
-        if warned != Some(splat.outside) && splat.outside * 100 > dots {
-            warn_outside(interp, splat.outside, dots);
-            warned = Some(splat.outside);
-        }
-        let cache = cache.with_label(label.clone()).with_profile("splat");
-        *var.state.borrow_mut() = Some(Arc::new(cache));
-    }
-    Ok(Value::Void)
 }
 
 fn wisp_builtin(_: &mut Interpreter, a: Args) -> Outcome<Value> {
