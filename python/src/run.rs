@@ -347,6 +347,7 @@ impl Session {
             let var = CacheVar {
                 shape: host.shape,
                 domain: host.domain.clone(),
+                frustum: None,
                 background: host.background.clone(),
                 state: RefCell::new(Some(host.cache.clone())),
             };
@@ -430,6 +431,14 @@ impl Session {
     /// A cache's cells as a `Grid`, read with the GIL released and the engine entered (a
     /// cache filled on demand computes its bricks now).
     fn read_cache(&self, py: Python<'_>, var: &Rc<CacheVar>) -> PyResult<Grid> {
+        // A frustum cache's cells are laid along the camera's rays, not on a world box, so
+        // they have no `Grid` (whose domain is an axis-aligned box of equal cells).
+        if var.frustum.is_some() {
+            return Err(PyValueError::new_err(
+                "a frustum cache's cells follow the camera's frustum, not a box of equal cells; \
+                 sample it into a cache over a domain (cache + cachewrite) to read it as a Grid",
+            ));
+        }
         let Some(cache) = var.state.borrow().clone() else {
             return Err(PyValueError::new_err(
                 "the cache was never written (no cachewrite ran)",

@@ -98,3 +98,14 @@ def test_a_script_cannot_redeclare_a_cache_handed_in(session):
     with pytest.raises(felt.FeltError) as raised:
         session.run("float density = 1;")
     assert raised.value.diagnostics[0].line == 1
+
+
+def test_a_frustum_cache_is_refused_as_a_grid(session):
+    # Its cells follow the camera's rays, so no box of equal cells holds them.
+    session.run(
+        "camera cam = camera((0, 0, 0), (0, 0, -1), (0, 1, 0), 40);\n"
+        + "scalarcache c = frustumcache(cam, 0.5, 4, 8, 6, 8);\n"
+        + "cachewrite(c, scalarfield(1.0));\n"
+    )
+    with pytest.raises(ValueError, match="frustum"):
+        session.get("c")
