@@ -6,8 +6,8 @@
 //! runs only that half.
 
 use felt::grid::cache::Cache;
-use felt::grid::domain::Domain;
-use felt::sample::{BLOCK, FieldSampler, FnField, GridSource, Interp};
+use felt::space::domain::Domain;
+use felt::space::{BLOCK, FieldSampler, FnField, GridSource, Interp};
 use glam::DVec3;
 use rayon::prelude::*;
 use std::sync::Arc;

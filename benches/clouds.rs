@@ -11,15 +11,14 @@
 //!
 //! Run with `cargo bench --bench clouds`.
 
-use felt::cloud::{
-    CloudState, Planes, Probabilities, Probability, SmoothedCloud, Smoothing, Wind, ellipsoid_field,
-};
+use felt::cloud::{CloudState, Planes, Probabilities, Probability, SmoothedCloud, Smoothing, Wind};
+use felt::field::shapes::ellipsoid_field;
 use felt::field::{CompiledField, Field};
 use felt::grid::cache::Cache;
-use felt::grid::domain::Domain;
 use felt::render::transmittance::light_columns;
 use felt::render::{Light, TransmissivityMethod};
-use felt::sample::{GridDerivative, GridSource, Interp};
+use felt::space::domain::Domain;
+use felt::space::{GridDerivative, GridSource, Interp};
 use glam::DVec3;
 use std::sync::Arc;
 use std::time::Instant;

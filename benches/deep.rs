@@ -8,7 +8,7 @@
 //! Run with `cargo bench --bench deep`.
 
 use felt::render::{Camera, Light, RenderSettings, Scene, render_deep, render_with_stats};
-use felt::sample::{Aabb, BlockEval, FieldSampler};
+use felt::space::{Aabb, BlockEval, FieldSampler};
 use glam::DVec3;
 use std::time::Instant;
 

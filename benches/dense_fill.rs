@@ -20,9 +20,9 @@
 
 use felt::field::CompiledField;
 use felt::grid::cache::Cache;
-use felt::grid::domain::Domain;
 use felt::interp::value::Value;
 use felt::session::Session;
+use felt::space::domain::Domain;
 use glam::DVec3;
 use std::time::Instant;
 

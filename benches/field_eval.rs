@@ -15,13 +15,13 @@
 //!
 //! Run with `cargo bench --bench field_eval`.
 
-use felt::failure::Outcome;
+use felt::base::failure::Outcome;
 use felt::field::eval::{Evaluator, Precision};
 use felt::field::program::Program;
 use felt::field::{CompiledField, Field, MathFn, grad};
 use felt::grid::cache::Cache;
-use felt::grid::domain::Domain;
-use felt::sample::{Aabb, BLOCK, BlockEval, FieldSampler, FnField};
+use felt::space::domain::Domain;
+use felt::space::{Aabb, BLOCK, BlockEval, FieldSampler, FnField};
 use glam::DVec3;
 use rayon::prelude::*;
 use std::sync::Arc;

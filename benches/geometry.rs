@@ -5,8 +5,8 @@
 //! rate of a few runs. An argument `mesh` or `distance` runs only that half.
 
 use felt::geometry::{MeshDistance, marching_cubes};
-use felt::grid::domain::Domain;
-use felt::sample::{BLOCK, FieldSampler, FnField};
+use felt::space::domain::Domain;
+use felt::space::{BLOCK, FieldSampler, FnField};
 use glam::DVec3;
 use rayon::prelude::*;
 use std::time::Instant;

@@ -20,10 +20,10 @@ mod scenes;
 
 use felt::field::{CompiledField, Field};
 use felt::grid::cache::Cache;
-use felt::grid::domain::Domain;
 use felt::render::settings::{Integrator, RenderSettings};
 use felt::render::{Camera, Light, Phase, Scene, render_with_stats};
-use felt::sample::{Aabb, GridSource};
+use felt::space::domain::Domain;
+use felt::space::{Aabb, GridSource};
 use glam::DVec3;
 use std::path::Path;
 use std::process::Command;

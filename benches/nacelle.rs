@@ -62,7 +62,7 @@ fn main() {
     if let Err(diagnostics) = session.run_file(&path) {
         panic!(
             "{}",
-            felt::diagnostic::render(&diagnostics, &session.sources.borrow(), false)
+            felt::syntax::diagnostic::render(&diagnostics, &session.sources.borrow(), false)
         );
     }
     let text = String::from_utf8_lossy(&out.0.borrow()).into_owned();

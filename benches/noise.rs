@@ -6,9 +6,9 @@
 //! Run with `cargo bench --bench noise`.
 
 use felt::field::noise::{NoiseKind, NoiseOutput, eval_f32};
-use felt::grid::domain::Domain;
-use felt::grid::fft::gaussian_random_field;
-use felt::sample::BLOCK;
+use felt::fluids::fft::gaussian_random_field;
+use felt::space::BLOCK;
+use felt::space::domain::Domain;
 use glam::DVec3;
 use rayon::prelude::*;
 use std::hint::black_box;

@@ -18,7 +18,6 @@
 
 use felt::field::{CompiledField, Field};
 use felt::grid::cache::Cache;
-use felt::grid::domain::Domain;
 use felt::particles::chaos::{self, Map, Settings};
 use felt::particles::flame_splat::{SplatInto, splat_flame};
 use felt::particles::guide::guides;
@@ -26,7 +25,8 @@ use felt::particles::splat::{Deposit, Kernel, splat};
 use felt::particles::{Particles, bytes_per_point};
 use felt::render::tonemap::ToneMap;
 use felt::render::{Camera, RenderSettings, Scene, render_with_stats};
-use felt::sample::{FieldSampler, GridDerivative, GridSource, Interp};
+use felt::space::domain::Domain;
+use felt::space::{FieldSampler, GridDerivative, GridSource, Interp};
 use glam::DVec3;
 use std::process::Command;
 use std::sync::Arc;

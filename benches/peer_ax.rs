@@ -17,7 +17,7 @@
 //! `cargo bench --bench peer_ax`.
 
 use felt::field::noise::{self, NoiseKind, NoiseOutput};
-use felt::sample::BLOCK;
+use felt::space::BLOCK;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;

@@ -8,12 +8,12 @@
 //!
 //! Run with `cargo bench --bench render`.
 
-use felt::grid::domain::Domain;
 use felt::render::{
     Adaptive, Camera, Image, Light, RenderSettings, Scene, Shadows, TransmissivityMethod,
     render_with_stats, transmissivity,
 };
-use felt::sample::{Aabb, BlockEval, FieldSampler};
+use felt::space::domain::Domain;
+use felt::space::{Aabb, BlockEval, FieldSampler};
 use glam::DVec3;
 use std::time::Instant;
 

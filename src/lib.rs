@@ -1,50 +1,35 @@
 //! felt: a field expression language for volumetric effects.
 //!
-//! The path of data is one-way, and each arrow is a module boundary:
-//! source text → `syntax` (lexer, parser, AST with spans) → `check` (types, names, arity; all
-//! errors before anything runs) → `interp` (statements, functions, plain values; builds field
-//! graphs) → `field` (hash-consed graphs compiled into batch programs) and `grid` (domains,
-//! caches, files) → `render` (raymarcher, image writers). Downstream modules never reach back
-//! upstream: the raymarcher knows fields, not syntax; the evaluator knows nodes, not statements.
-//!
-//! So a module names only its own layer and those below it. From the top: the command (`cli`,
-//! `repl`, `doc`, `lsp`, `study`, `farm`, `sequence`); `session`; `interp`; `check`; `syntax`
-//! and `diagnostic`; the producers and `render`; `field` and `grid`; `sample`, the vocabulary
-//! they share; `engine` and `budget`; files and signals (`output`, `input`, `frames`,
-//! `interrupt`, `usd`); `failure`. `tests/layers.rs` holds that order and fails on an import
-//! that runs up it, besides the few it lists with their reasons.
+//! The path of data is one-way, and each folder is a layer that names only its own layer and
+//! those below it. From the top: `app` (the command's tools: REPL, `felt doc`, the language
+//! server, `felt study`, farm jobs, frame sequences) and `session` (the standard library
+//! loaded, scripts checked and run); `interp` (statements, values, builtins, paths and
+//! provenance); `check` (types, names, arity: every error before anything runs); `syntax`
+//! (lexer, parser, AST with spans, diagnostics); the producers and the renderer (`render`,
+//! `particles`, `cloud`, `geometry`, `fluids`); `field` (hash-consed graphs compiled into batch
+//! programs) and `grid` (caches and grid files); `space`, the sampling vocabulary they share
+//! (domains, demand, the traits producers and consumers meet at); `engine` (the run's context:
+//! budget, profile, pools, interrupts); `io` (files in and out, frame patterns); `base` (the
+//! failure type). `tests/layers.rs` holds that order and fails on an import that runs up it,
+//! besides the few it lists with their reasons.
 
 // Block kernels index several parallel lane arrays with one counter; iterator chains over
 // zipped slices would hide that and vectorise no better.
 #![allow(clippy::needless_range_loop)]
 
-pub mod budget;
+pub mod app;
+pub mod base;
 pub mod check;
 pub mod cloud;
-pub mod diagnostic;
-pub mod doc;
 pub mod engine;
-pub mod failure;
-pub mod farm;
 pub mod field;
-pub mod frames;
+pub mod fluids;
 pub mod geometry;
 pub mod grid;
-pub mod input;
 pub mod interp;
-pub mod interrupt;
-pub mod lsp;
-pub mod output;
+pub mod io;
 pub mod particles;
-pub mod paths;
-pub mod provenance;
 pub mod render;
-pub mod repl;
-pub mod sample;
-pub mod sequence;
 pub mod session;
-pub mod study;
+pub mod space;
 pub mod syntax;
-#[cfg(test)]
-mod test_random;
-pub mod usd;

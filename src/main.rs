@@ -8,14 +8,17 @@
 //! 70 on an internal error (a bug in felt: a panic, reported in one line, or a
 //! `Failure::internal`, whose diagnostic's help line asks for a report), 130 when interrupted.
 
+// The command line is the binary's own; its files live with the command's tools in `app/`.
+#[path = "app/cli.rs"]
 mod cli;
+#[path = "app/farm_command.rs"]
 mod farm_command;
 
 use clap::Parser;
 use cli::{Cli, Command};
 use farm_command::{farm, merge};
-use felt::diagnostic::{self, Diagnostic};
 use felt::session::Session;
+use felt::syntax::diagnostic::{self, Diagnostic};
 use std::io::IsTerminal;
 use std::process::ExitCode;
 
@@ -62,7 +65,7 @@ fn set_threads(threads: Option<u16>) -> Result<(), ExitCode> {
             .map(|n| n.get())
             .unwrap_or(1)
     });
-    let fitted = felt::budget::threads_that_fit(wanted);
+    let fitted = felt::engine::budget::threads_that_fit(wanted);
     if fitted < wanted {
         eprintln!(
             "felt: warning: {wanted} worker threads do not fit this process's address-space \
@@ -109,7 +112,7 @@ fn run(cli: Cli) -> ExitCode {
                 if range.frames.len() > 1 {
                     let args: Vec<std::ffi::OsString> = std::env::args_os().skip(1).collect();
                     stop_children_when_interrupted();
-                    return ExitCode::from(felt::sequence::run(range, &args));
+                    return ExitCode::from(felt::app::sequence::run(range, &args));
                 }
                 engine.output.set_frame_range();
                 set.push(("frame".to_string(), range.frames[0].to_string()));
@@ -119,7 +122,7 @@ fn run(cli: Cli) -> ExitCode {
             }
             // Ctrl-C or SIGTERM in a batch run: no half-written temporary is left behind.
             let _ = ctrlc::set_handler(|| {
-                felt::output::remove_temporaries();
+                felt::io::output::remove_temporaries();
                 eprintln!("felt: interrupted");
                 std::process::exit(130);
             });
@@ -171,7 +174,7 @@ fn run(cli: Cli) -> ExitCode {
             // Ctrl-C or SIGTERM: the running setting's process group is stopped first (it
             // removes its temporaries), then the study exits as an interrupted run does.
             stop_children_when_interrupted();
-            ExitCode::from(felt::study::run(&felt::study::StudyArgs {
+            ExitCode::from(felt::app::study::run(&felt::app::study::StudyArgs {
                 script: file,
                 sweeps,
                 reference,
@@ -222,10 +225,10 @@ fn run(cli: Cli) -> ExitCode {
             if let Err(code) = set_threads(threads) {
                 return code;
             }
-            felt::repl::run()
+            felt::app::repl::run()
         }
-        Command::Doc { name } => felt::doc::print(name.as_deref()),
-        Command::Lsp => felt::lsp::serve(),
+        Command::Doc { name } => felt::app::doc::print(name.as_deref()),
+        Command::Lsp => felt::app::lsp::serve(),
         Command::Merge {
             images,
             frames,
@@ -313,7 +316,7 @@ pub(crate) fn frame_param(
 /// run does.
 fn stop_children_when_interrupted() {
     let _ = ctrlc::set_handler(|| {
-        felt::interrupt::stop_children();
+        felt::engine::interrupt::stop_children();
         eprintln!("felt: interrupted");
         std::process::exit(130);
     });
@@ -322,7 +325,7 @@ fn stop_children_when_interrupted() {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use felt::diagnostic::Stage;
+    use felt::syntax::diagnostic::Stage;
 
     fn error(stage: Stage) -> Diagnostic {
         Diagnostic::bare(stage, String::from("failed"))

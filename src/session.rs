@@ -7,13 +7,14 @@
 //! output settings. It enters the engine while it runs code, so everything that code does —
 //! on this thread and on the worker threads it starts — is accounted to this session alone.
 
+use crate::base::suggest;
 use crate::check::{self, CheckEnv};
-use crate::diagnostic::{Diagnostic, Stage};
 use crate::engine::Engine;
+use crate::interp::Interpreter;
 use crate::interp::value::Value;
-use crate::interp::{Interpreter, suggest};
 use crate::syntax;
 use crate::syntax::ast::{DeclInit, Item, Program, StmtKind};
+use crate::syntax::diagnostic::{Diagnostic, Stage};
 use crate::syntax::span::{FileId, SourceMap, Span};
 use std::cell::RefCell;
 use std::collections::HashSet;
@@ -426,9 +427,9 @@ impl Session {
             .cloned()
             .collect();
         let mut text = String::from("profile: grids computed\n");
-        text.push_str(&crate::grid::profile::format_table(&ran));
+        text.push_str(&crate::engine::profile::format_table(&ran));
         let made: u64 = entries.iter().map(|e| e.instances).sum();
-        let idle: Vec<(u64, &crate::grid::profile::ProfileEntry)> = entries
+        let idle: Vec<(u64, &crate::engine::profile::ProfileEntry)> = entries
             .iter()
             .map(|e| (e.instances.saturating_sub(e.evaluated), e))
             .filter(|(n, _)| *n > 0)
@@ -482,7 +483,7 @@ pub const MAX_SCRIPT_BYTES: u64 = 64 << 20;
 
 /// The bytes of a script or an import: a regular file of at most `MAX_SCRIPT_BYTES`.
 fn read_script(path: &Path) -> Result<Vec<u8>, String> {
-    crate::input::read_whole(path, MAX_SCRIPT_BYTES, "a script")
+    crate::io::input::read_whole(path, MAX_SCRIPT_BYTES, "a script")
         .map_err(|reason| format!("cannot read `{}`: {reason}", path.display()))
 }
 

@@ -5,11 +5,11 @@
 mod common;
 
 use felt::cloud::{CloudState, Probabilities, Probability, SmoothedCloud, Smoothing, Wind};
-use felt::grid::domain::Domain;
 use felt::render::Light;
 use felt::render::TransmissivityMethod;
 use felt::render::transmittance::light_columns;
-use felt::sample::{Aabb, FnField};
+use felt::space::domain::Domain;
+use felt::space::{Aabb, FnField};
 use glam::DVec3;
 
 /// Distance from `p` inside the box `[0, lengths]` to where the ray along `u` leaves it.

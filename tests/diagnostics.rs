@@ -5,8 +5,8 @@
 
 mod common;
 
-use felt::diagnostic::{self, MAX_RENDERED};
 use felt::session::Session;
+use felt::syntax::diagnostic::{self, MAX_RENDERED};
 use std::path::Path;
 
 /// (script, line, column of the primary span, a phrase the message must contain)
@@ -213,7 +213,7 @@ fn call_errors_are_found_by_the_checker_before_any_work() {
 }
 
 /// The checker's diagnostics for `source`, rendered, with the whitespace flattened.
-fn checked(source: &str) -> (Vec<felt::diagnostic::Diagnostic>, String) {
+fn checked(source: &str) -> (Vec<felt::syntax::diagnostic::Diagnostic>, String) {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("call.felt");
     std::fs::write(&path, source).unwrap();

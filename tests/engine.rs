@@ -81,7 +81,7 @@ fn a_sessions_profile_lists_only_its_own_grids() {
     let a = common::run_script(&first, &[]);
     let b = common::run_script(&second, &[]);
     assert!(a.ok && b.ok, "{}{}", a.rendered, b.rendered);
-    let labels = |rows: &[felt::grid::profile::ProfileEntry]| {
+    let labels = |rows: &[felt::engine::profile::ProfileEntry]| {
         rows.iter().map(|r| r.label.clone()).collect::<Vec<_>>()
     };
     let (a_labels, b_labels) = (labels(&a.profile), labels(&b.profile));

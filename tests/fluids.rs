@@ -474,7 +474,7 @@ fn a_graph_that_doubles_every_step_gets_one_warning() {
     session.interp.graph_warning_nodes = 20_000;
     assert!(session.run_file(&path).is_ok());
     let warnings = session.finish();
-    let rendered = felt::diagnostic::render(&warnings, &session.sources.borrow(), false);
+    let rendered = felt::syntax::diagnostic::render(&warnings, &session.sources.borrow(), false);
     let grown: Vec<_> = warnings
         .iter()
         .filter(|d| d.message.contains("graph has grown"))

@@ -3,84 +3,36 @@
 //! to the failure type everything reports with, are written once, here; `src/lib.rs` describes
 //! the same order.
 //!
-//! The imports that run up today are listed with the reason each is there: the test fails on
-//! any other (a new module must be given a layer, a new import must go down), and on a listed
-//! one that has gone (so the list only shrinks). Doc comments count: a link up is a
-//! dependency of the reader's understanding, and the same move removes it.
+//! No import runs up: a new module must be given a layer, and what two layers share moves
+//! down to the lower one. Doc comments count: a link up is a dependency of the reader's
+//! understanding, and the same move removes it. The folders are the layers, so besides
+//! `lib.rs`, `main.rs` and `session.rs` (the front door) no file sits loose in `src/`.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 
 /// The layers, top (the command) to bottom; a module names only its own layer and those below.
 const LAYERS: &[&[&str]] = &[
-    // The felt command: its subcommands and the tools they drive.
-    &[
-        "cli",
-        "repl",
-        "doc",
-        "lsp",
-        "study",
-        "farm",
-        "farm_command",
-        "sequence",
-    ],
+    // The felt command: its tools (`app`), and the binary's own modules, whose files are in
+    // `app/` too.
+    &["app", "cli", "farm_command"],
     // A session: the standard library loaded, scripts checked and run.
     &["session"],
     // Running a script: values, statements, builtins, paths and provenance.
-    &["interp", "paths", "provenance"],
+    &["interp"],
     &["check"],
     // Source text and its diagnostics, which need only spans.
-    &["syntax", "diagnostic"],
+    &["syntax"],
     // The producers and the renderer.
-    &["render", "particles", "cloud", "geometry"],
+    &["render", "particles", "cloud", "geometry", "fluids"],
     &["field", "grid"],
     // The sampling vocabulary fields, grids and the renderer share.
-    &["sample"],
-    &["engine", "budget"],
-    // Files in and out, frame patterns, interrupts.
-    &["output", "input", "frames", "interrupt", "usd"],
-    &["failure", "test_random"],
-];
-
-/// Imports that run up today, `(from, to, why)`.
-const KNOWN_UP: &[(&str, &str, &str)] = &[
-    (
-        "budget",
-        "grid",
-        "the budget frees the grids' spare buffers before refusing",
-    ),
-    (
-        "engine",
-        "grid",
-        "the engine holds the profile, which lives in grid",
-    ),
-    (
-        "engine",
-        "render",
-        "the engine holds the band a farm task renders",
-    ),
-    (
-        "field",
-        "cloud",
-        "a pruning test builds a cloud ellipsoid field",
-    ),
-    (
-        "interp",
-        "session",
-        "the checker/interpreter agreement test runs scripts in a session",
-    ),
-    ("interrupt", "engine", "the interrupt flag is the engine's"),
-    (
-        "output",
-        "engine",
-        "output settings (directory, overwrite) are the engine's",
-    ),
-    (
-        "particles",
-        "interp",
-        "flame builds matrices and did-you-mean help with the interpreter's helpers",
-    ),
-    ("sample", "grid", "sample.rs names grid's Domain"),
+    &["space"],
+    // The run's context: budget, profile, pools, interrupts.
+    &["engine"],
+    // Files in and out, frame patterns.
+    &["io"],
+    &["base"],
 ];
 
 /// Every `crate::NAME` named from each top-level module of `src/`.
@@ -107,6 +59,11 @@ fn imports(src: &Path) -> BTreeMap<String, BTreeSet<String>> {
         }
         let text = std::fs::read_to_string(&file).unwrap();
         let entry = named.entry(module.clone()).or_default();
+        assert!(
+            !text.contains("crate::{"),
+            "{}: name each module in its own `use crate::...` so this test can read it",
+            relative.display()
+        );
         for (at, _) in text.match_indices("crate::") {
             let name: String = text[at + "crate::".len()..]
                 .chars()
@@ -146,18 +103,25 @@ fn modules_name_only_their_layer_and_those_below() {
             }
         }
     }
-    let known: BTreeSet<(String, String)> = KNOWN_UP
-        .iter()
-        .map(|(from, to, _)| (from.to_string(), to.to_string()))
-        .collect();
-    let new: Vec<_> = up.difference(&known).collect();
     assert!(
-        new.is_empty(),
-        "imports that run up the layers: {new:?}; move the shared part down instead"
+        up.is_empty(),
+        "imports that run up the layers: {up:?}; move the shared part down instead"
     );
-    let gone: Vec<_> = known.difference(&up).collect();
+}
+
+#[test]
+fn only_the_front_door_is_loose() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut loose: Vec<String> = std::fs::read_dir(&src)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.is_file())
+        .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+        .filter(|name| !["lib.rs", "main.rs", "session.rs"].contains(&name.as_str()))
+        .collect();
+    loose.sort();
     assert!(
-        gone.is_empty(),
-        "these imports no longer run up: {gone:?}; take them off KNOWN_UP"
+        loose.is_empty(),
+        "files loose in src/: {loose:?}; each belongs in the folder of its layer"
     );
 }

@@ -11,12 +11,12 @@ mod common;
 
 use felt::field::{CompiledField, Field};
 use felt::grid::cache::Cache;
-use felt::grid::domain::Domain;
 use felt::render::settings::{Integrator, RenderSettings};
 use felt::render::sky::Sky;
 use felt::render::sky::envmap::EnvMap;
 use felt::render::{Camera, Light, Phase, Scene, render};
-use felt::sample::{Aabb, GridSource};
+use felt::space::domain::Domain;
+use felt::space::{Aabb, GridSource};
 use glam::DVec3;
 use std::path::{Path, PathBuf};
 use std::process::Command;

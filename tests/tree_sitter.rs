@@ -70,7 +70,7 @@ fn the_textmate_grammar_lists_exactly_felts_builtins_and_library_functions() {
         .names()
         .map(str::to_string)
         .collect();
-    let library: BTreeSet<String> = felt::doc::stdlib_docs()
+    let library: BTreeSet<String> = felt::app::doc::stdlib_docs()
         .into_iter()
         .map(|d| d.name)
         .collect();

@@ -1,8 +1,8 @@
 //! Diagnostics as Python objects, and `FeltError`, whose text is the report the CLI prints
-//! (`felt::diagnostic::render`, without colour) so a log shows what a terminal would.
+//! (`felt::syntax::diagnostic::render`, without colour) so a log shows what a terminal would.
 
 use crate::FeltError;
-use felt::diagnostic::{Diagnostic, Severity};
+use felt::syntax::diagnostic::{Diagnostic, Severity};
 use felt::syntax::span::SourceMap;
 use pyo3::prelude::*;
 
@@ -77,7 +77,7 @@ pub fn to_python(
 
 /// A `FeltError` carrying the CLI's report as its text and the diagnostics as an attribute.
 pub fn felt_error(py: Python<'_>, diags: &[Diagnostic], sources: &SourceMap) -> PyErr {
-    let report = felt::diagnostic::render(diags, sources, false);
+    let report = felt::syntax::diagnostic::render(diags, sources, false);
     let error = FeltError::new_err(report.trim_end().to_string());
     match to_python(py, diags, sources) {
         Ok(list) => match error.value(py).setattr("diagnostics", list) {

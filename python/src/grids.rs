@@ -11,7 +11,7 @@
 //! enters a cache.
 
 use felt::grid::cache::{BRICK, BRICK_CELLS, Cache};
-use felt::grid::domain::Domain;
+use felt::space::domain::Domain;
 use numpy::npyffi::NPY_ORDER;
 use numpy::{PyArray1, PyArrayMethods};
 use pyo3::prelude::*;

@@ -4,10 +4,10 @@ use crate::diagnostics::{self, PyDiagnostic};
 use crate::grids::{self, Grid};
 use crate::{sigint, values};
 use felt::check::types::{Shape, Type};
-use felt::diagnostic::Diagnostic;
+use felt::syntax::diagnostic::Diagnostic;
 use felt::engine::Engine;
 use felt::grid::cache::Cache;
-use felt::grid::domain::Domain;
+use felt::space::domain::Domain;
 use felt::interp::value::{CacheVar, Value};
 use numpy::{PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyKeyError, PyKeyboardInterrupt, PyTypeError, PyValueError};
@@ -299,7 +299,7 @@ impl Session {
         };
         let origin = glam::DVec3::new(origin.0, origin.1, origin.2);
         let lengths = glam::DVec3::new(cells[0] as f64, cells[1] as f64, cells[2] as f64) * cell;
-        let failure = |f: felt::failure::Failure| PyValueError::new_err(f.message);
+        let failure = |f: felt::base::failure::Failure| PyValueError::new_err(f.message);
         let _entered = self.engine.enter();
         let domain =
             Domain::with_cells(origin, lengths, glam::DVec3::ZERO, cell, cell).map_err(failure)?;

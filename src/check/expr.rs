@@ -5,10 +5,10 @@
 use super::Checker;
 use super::resolve::{self, Culprit, Resolution};
 use super::signature::Param;
-use super::suggest;
 use super::types::{self, Type, binary_result, unary_result, unify};
-use crate::diagnostic::{Diagnostic, Stage};
+use crate::base::suggest;
 use crate::syntax::ast::*;
+use crate::syntax::diagnostic::{Diagnostic, Stage};
 use crate::syntax::span::Span;
 
 impl Checker<'_> {
@@ -353,7 +353,7 @@ impl Checker<'_> {
             Some((file, _)) if grid_name => file,
             _ => text.as_str(),
         };
-        if crate::frames::has_pattern(file) {
+        if crate::io::frames::has_pattern(file) {
             let d = self.error(
                 Stage::Type,
                 value.span,

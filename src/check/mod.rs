@@ -17,13 +17,12 @@ mod expr;
 pub mod resolve;
 pub mod signature;
 mod stmt;
-pub mod suggest;
 
 use stmt::block_returns;
 pub mod types;
 
-use crate::diagnostic::{Diagnostic, MAX_RENDERED, Stage};
 use crate::syntax::ast::*;
+use crate::syntax::diagnostic::{Diagnostic, MAX_RENDERED, Stage};
 use crate::syntax::span::Span;
 use signature::Signatures;
 use std::collections::HashMap;
@@ -316,7 +315,8 @@ impl Checker<'_> {
             .flat_map(|s| s.keys().map(|k| k.as_str()))
             .collect();
         names.extend(self.env.globals.keys().map(|k| k.as_str()));
-        suggest::closest(name, names.into_iter()).map(|s| format!("did you mean `{s}`?"))
+        crate::base::suggest::closest(name, names.into_iter())
+            .map(|s| format!("did you mean `{s}`?"))
     }
 }
 

@@ -11,9 +11,9 @@
 //! once rather than one per run.
 
 use super::signature::{Builtin, Param, ParamType, Signature, format_signature};
-use super::suggest;
 use super::types::Type;
-use crate::failure::Failure;
+use crate::base::failure::Failure;
+use crate::base::suggest;
 use crate::syntax::ast::Arg;
 use crate::syntax::span::Span;
 

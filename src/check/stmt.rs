@@ -3,8 +3,8 @@
 
 use super::types::{Type, binary_result};
 use super::{Checker, constructor_exists};
-use crate::diagnostic::Stage;
 use crate::syntax::ast::*;
+use crate::syntax::diagnostic::Stage;
 use crate::syntax::span::Span;
 use std::collections::HashMap;
 

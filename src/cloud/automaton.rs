@@ -20,7 +20,7 @@
 use super::bits::Planes;
 use super::random::{self, ACT, EXT, HUM};
 use super::region::Probabilities;
-use crate::grid::domain::Domain;
+use crate::space::domain::Domain;
 use rayon::prelude::*;
 use std::fmt;
 use std::sync::Arc;

@@ -27,7 +27,7 @@ mod tests;
 
 pub use automaton::{CloudState, Wind};
 pub use bits::Planes;
-pub use region::{Probabilities, Probability, ellipsoid_field, ellipsoid_profile};
+pub use region::{Probabilities, Probability, ellipsoid_profile};
 pub use smooth::{SmoothedCloud, Smoothing};
 
 /// The largest smoothing radius and time window `clouddensity` accepts.

@@ -10,10 +10,9 @@
 
 use super::bits::Planes;
 use super::random::{threshold, thresholds};
-use crate::failure::Outcome;
-use crate::field::{CompiledField, Field, MathFn};
-use crate::grid::domain::Domain;
-use crate::sample::{Aabb, BlockEval, FieldSampler};
+use crate::field::CompiledField;
+use crate::space::domain::Domain;
+use crate::space::{Aabb, BlockEval, FieldSampler};
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -198,22 +197,6 @@ pub fn ellipsoid_profile(p: [f64; 3], center: [f64; 3], radii: [f64; 3]) -> f64 
         .map(|a| ((p[a] - center[a]) / radii[a]).powi(2))
         .sum();
     (1.0 - s.sqrt()).max(0.0)
-}
-
-/// `ellipsoid_profile` as a felt field, `max(0, 1 − √Σ((p − c)/r)²)`, built from field nodes
-/// so that interval evaluation finds it zero away from the ellipsoid.
-pub fn ellipsoid_field(center: glam::DVec3, radii: glam::DVec3) -> Outcome<Field> {
-    let p = Field::identity();
-    let mut sum = Field::constant_scalar(0.0);
-    for axis in 0..3 {
-        let d = p
-            .component(axis)?
-            .sub(&Field::constant_scalar(center[axis]))?
-            .div(&Field::constant_scalar(radii[axis]))?;
-        sum = sum.add(&d.mul(&d)?)?;
-    }
-    let profile = Field::constant_scalar(1.0).sub(&sum.math(MathFn::Sqrt)?)?;
-    Field::max(&profile, &Field::constant_scalar(0.0))
 }
 
 /// One slab's share of the three probabilities: its cells' thresholds and its rows' words.

@@ -5,8 +5,8 @@
 use super::bits::Planes;
 use super::region::{Probabilities, Probability};
 use super::tests::each_cell;
-use crate::grid::domain::Domain;
-use crate::sample::FieldSampler;
+use crate::space::FieldSampler;
+use crate::space::domain::Domain;
 use glam::DVec3;
 
 #[test]
@@ -36,7 +36,7 @@ fn a_probability_becomes_the_nearest_sixteen_bit_threshold() {
         assert_eq!(threshold(p), t, "p = {p}");
     }
     // Elsewhere in (0, 1) it is `p · 65535` rounded to the nearest whole number.
-    let mut random = crate::test_random::SplitMix(11);
+    let mut random = crate::base::test_random::SplitMix(11);
     for _ in 0..100_000 {
         let p = random.unit();
         assert_eq!(threshold(p), (p * 65535.0).round() as u16, "p = {p}");
@@ -56,7 +56,9 @@ fn region_volumes_sampled_in_one_pass_match_the_profiles_cell_by_cell() {
     ];
     let mut r = crate::field::Field::constant_scalar(0.0);
     for (c, radii) in ellipsoids {
-        let e = super::ellipsoid_field(DVec3::from_array(c), DVec3::from_array(radii)).unwrap();
+        let e =
+            crate::field::shapes::ellipsoid_field(DVec3::from_array(c), DVec3::from_array(radii))
+                .unwrap();
         r = crate::field::Field::max(&r, &e).unwrap();
     }
     let constant = crate::field::Field::constant_scalar;

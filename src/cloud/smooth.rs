@@ -16,8 +16,8 @@
 //! skipped without being evaluated (the density-map test of §7.2.2, per brick).
 
 use super::bits::Planes;
-use crate::grid::domain::Domain;
-use crate::sample::{Aabb, BlockEval, FieldSampler};
+use crate::space::domain::Domain;
+use crate::space::{Aabb, BlockEval, FieldSampler};
 use glam::DVec3;
 use std::sync::Arc;
 

@@ -3,8 +3,8 @@ use super::bits::Planes;
 use super::region::{Probabilities, Probability, ellipsoid_profile};
 use super::smooth::{SmoothedCloud, Smoothing};
 use crate::grid::cache::Cache;
-use crate::grid::domain::Domain;
-use crate::sample::FieldSampler;
+use crate::space::FieldSampler;
+use crate::space::domain::Domain;
 use glam::DVec3;
 use std::sync::Arc;
 
@@ -389,7 +389,7 @@ fn smoothing_follows_its_weights() {
     );
     assert_eq!(d.at_cell(4, 4, 4), 8.0 / (64.0 * 3.0));
     // Ranges: certainly zero far from the cloud, possibly non-zero over it.
-    use crate::sample::Aabb;
+    use crate::space::Aabb;
     let far = Aabb::new(DVec3::ZERO, DVec3::splat(1.9));
     assert_eq!(d.range(&far), vec![(0.0, 0.0)]);
     let near = Aabb::new(DVec3::splat(3.1), DVec3::splat(3.9));

@@ -23,8 +23,8 @@
 
 use super::node::{self, Kernel, NodeRef, Op};
 use super::{Field, FieldKind};
-use crate::failure::{Failure, Outcome};
-use crate::sample::{GridSource, Lattice};
+use crate::base::failure::{Failure, Outcome};
+use crate::space::{GridSource, Lattice};
 use std::sync::Arc;
 
 /// How `advect` moves values along the velocity.

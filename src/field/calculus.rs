@@ -19,9 +19,9 @@
 //! exact first and second derivatives; third and higher ones (needed by nested level-set
 //! projections such as procedural `cumulo`) are central differences of the exact Hessian.
 
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 use crate::field::node::{self, BinOp, Kernel, MathFn, NodeRef, Op};
-use crate::sample::GridDerivative;
+use crate::space::GridDerivative;
 use glam::DVec3;
 use std::collections::HashMap;
 

@@ -17,7 +17,7 @@ use crate::field::linalg::pseudo_inverse;
 use crate::field::node::{BinOp, MathFn, sin_cos};
 use crate::field::noise::{self, NoiseOutput};
 use crate::field::program::{Instr, Program, Reg, UNUSED};
-use crate::sample::BLOCK;
+use crate::space::BLOCK;
 use std::sync::Arc;
 
 /// Which noise kernels a run uses (registers are always `f64`).

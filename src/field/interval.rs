@@ -12,7 +12,7 @@
 use crate::field::node::{BinOp, Kernel, MathFn, NodeRef};
 use crate::field::noise;
 use crate::field::ssa::{Index, Inst, Ssa};
-use crate::sample::Aabb;
+use crate::space::Aabb;
 use glam::DVec3;
 use std::sync::Arc;
 

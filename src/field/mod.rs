@@ -31,6 +31,7 @@ mod op_tests;
 pub mod program;
 pub mod prune;
 mod sampler;
+pub mod shapes;
 pub mod ssa;
 mod substitution;
 #[cfg(test)]
@@ -42,8 +43,8 @@ pub use sampler::{
     CompiledField, grids_read, prepare, probe, sample_points, stats, stats_with_count,
 };
 
-use crate::failure::{Failure, Outcome};
-use crate::sample::{GridDerivative, GridSource, Interp};
+use crate::base::failure::{Failure, Outcome};
+use crate::space::{GridDerivative, GridSource, Interp};
 use glam::{DMat3, DVec3};
 use node::{BinOp, Kernel, NodeRef, Op};
 use std::fmt;

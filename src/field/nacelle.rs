@@ -13,7 +13,7 @@
 //! differentiable and compiles into one program.
 
 use super::{Field, compose, grad};
-use crate::failure::Outcome;
+use crate::base::failure::Outcome;
 
 /// Below this `|∇Lr|²` a point has no usable direction and does not move (a unit-gradient
 /// distance field is far above it everywhere but at its singular points).

@@ -16,7 +16,7 @@
 mod intern;
 
 use crate::field::noise::NoiseKind;
-use crate::sample::{GridDerivative, GridSource, Interp};
+use crate::space::{GridDerivative, GridSource, Interp};
 use intern::intern;
 use std::fmt;
 use std::sync::Arc;

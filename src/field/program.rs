@@ -11,7 +11,7 @@
 use crate::field::node::{BinOp, Kernel, MathFn, NodeRef};
 use crate::field::noise::NoiseKind;
 use crate::field::ssa::{Index, Inst, Ssa};
-use crate::sample::{GridSource, Interp};
+use crate::space::{GridSource, Interp};
 use std::sync::Arc;
 
 /// A register index.

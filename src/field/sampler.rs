@@ -6,7 +6,7 @@
 //! threads. The one key decision: inspection evaluates in double precision throughout (noise
 //! included), because it is how scripts and tests check values against closed forms.
 
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 use crate::field::eval::{Evaluator, Precision, ProgramRef};
 use crate::field::interval;
 use crate::field::node::{Kernel, NodeRef};
@@ -14,8 +14,8 @@ use crate::field::program::Program;
 use crate::field::prune;
 use crate::field::ssa::{Index, Inst, Ssa};
 use crate::field::{Field, FieldKind, FieldValue};
-use crate::grid::domain::Domain;
-use crate::sample::{Aabb, BLOCK, BlockEval, FieldSampler, GridSource};
+use crate::space::domain::Domain;
+use crate::space::{Aabb, BLOCK, BlockEval, FieldSampler, GridSource};
 use glam::{DMat3, DVec3};
 use rayon::prelude::*;
 use std::sync::{Arc, OnceLock};
@@ -32,7 +32,7 @@ pub struct CompiledField {
     /// The max, min and select instructions, which a region may decide (`prune`).
     choices: Vec<Index>,
     /// The budget its worker threads' evaluators take, when it was `prepared` for an output.
-    _evaluators: Option<crate::budget::Reservation>,
+    _evaluators: Option<crate::engine::budget::Reservation>,
 }
 
 impl CompiledField {
@@ -83,7 +83,7 @@ impl CompiledField {
         // is charged before any thread starts (a long tape on many threads is megabytes).
         let threads = rayon::current_num_threads();
         let registers = compiled.program.registers;
-        compiled._evaluators = Some(crate::budget::reserve(
+        compiled._evaluators = Some(crate::engine::budget::reserve(
             (threads * crate::field::eval::evaluator_bytes(&compiled.program)) as f64,
             &format!(
                 "evaluating a field of {registers} registers of {BLOCK} points on each of \
@@ -96,7 +96,7 @@ impl CompiledField {
     /// Runs the whole-grid solves this field depends on, in dependency order (see
     /// `grid::demand`). Every output calls this before it evaluates in parallel.
     pub fn prepare(&self) -> Outcome<()> {
-        crate::grid::demand::solve_ahead(self.grids.clone())
+        crate::space::demand::solve_ahead(self.grids.clone())
     }
 
     pub fn program(&self) -> &Program {
@@ -276,7 +276,7 @@ fn grids_of(ssa: &Ssa) -> Vec<Arc<dyn GridSource>> {
 
 /// Runs the whole-grid solves `field` depends on (see `CompiledField::prepare`).
 pub fn prepare(field: &Field) -> Outcome<()> {
-    crate::grid::demand::solve_ahead(grids_read(field.components()))
+    crate::space::demand::solve_ahead(grids_read(field.components()))
 }
 
 /// The value of `field` at `point`, in double precision.
@@ -364,7 +364,7 @@ pub fn stats_with_count(field: &Field, domain: &Domain) -> Outcome<(f64, f64, f6
         .map_init(
             || Evaluator::new(&program),
             |evaluator, run| {
-                if crate::interrupt::requested() {
+                if crate::engine::interrupt::requested() {
                     return None;
                 }
                 let first = run * STATS_RUN;

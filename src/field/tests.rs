@@ -3,8 +3,8 @@
 
 use super::*;
 use crate::field::noise::NoiseKind;
-use crate::grid::domain::Domain;
-use crate::sample::{Aabb, FieldSampler};
+use crate::space::domain::Domain;
+use crate::space::{Aabb, FieldSampler};
 
 pub(super) fn x() -> Field {
     Field::identity()

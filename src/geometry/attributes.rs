@@ -10,7 +10,7 @@
 //! vector `(u, v, w)`, `w` zero for flat maps); `P`, the position, is not an attribute but
 //! reads and writes like one.
 
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 use glam::DVec3;
 use std::collections::BTreeMap;
 

@@ -16,8 +16,8 @@ use super::Mesh;
 use super::bvh::Bvh;
 use super::components::welded;
 use super::winding::{Moments, moments, winding_number};
-use crate::failure::{Failure, Outcome};
-use crate::sample::{Aabb, BlockEval, FieldSampler};
+use crate::base::failure::{Failure, Outcome};
+use crate::space::{Aabb, BlockEval, FieldSampler};
 use glam::DVec3;
 
 /// The signed distance to a mesh, positive inside; a scalar `FieldSampler`.

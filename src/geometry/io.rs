@@ -9,8 +9,8 @@
 use super::Mesh;
 use super::obj::{parse_obj, write_obj};
 use super::ply::{parse_ply, write_ply};
-use crate::failure::{Failure, Outcome};
-use crate::input::{Content, sniff};
+use crate::base::failure::{Failure, Outcome};
+use crate::io::input::{Content, sniff};
 use std::io::Write;
 use std::path::Path;
 
@@ -46,8 +46,9 @@ pub fn load_mesh(path: &Path) -> Outcome<Mesh> {
         ))
     };
     // A shape file is read whole, so it may be no larger than the memory budget.
-    let limit = crate::grid::domain::memory_limit();
-    let bytes = crate::input::read_whole(path, limit, "a shape file").map_err(|e| cannot(&e))?;
+    let limit = crate::space::domain::memory_limit();
+    let bytes =
+        crate::io::input::read_whole(path, limit, "a shape file").map_err(|e| cannot(&e))?;
     let mesh = check_content(kind, &bytes).and_then(|()| match kind {
         Kind::Obj => parse_obj(&bytes).and_then(|mesh| {
             // Any bytes parse as an OBJ file with no records; binary ones were not meant as one.
@@ -100,7 +101,7 @@ pub fn save_mesh(mesh: &Mesh, path: &Path) -> Outcome<()> {
         Kind::Obj => write_obj(mesh)?,
         Kind::Ply => write_ply(mesh)?,
     };
-    crate::output::write_atomically(path, |file| {
+    crate::io::output::write_atomically(path, |file| {
         file.write_all(&bytes).map_err(|e| e.to_string())
     })
     .map_err(|e| Failure::new(format!("cannot write shape file '{}': {e}", path.display())))

@@ -13,10 +13,10 @@
 //! and counted, never silently kept as extra pieces.
 
 use super::{Mesh, marching_cubes, pieces_above};
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 use crate::field::{CompiledField, Field, sample_points};
-use crate::grid::domain::Domain;
-use crate::sample::Lattice;
+use crate::space::Lattice;
+use crate::space::domain::Domain;
 use glam::DVec3;
 use std::collections::BTreeMap;
 

@@ -21,9 +21,9 @@
 
 use super::Mesh;
 use super::cases::{self, CENTRE, EDGE_START, corner_offset, edge_axis, face_corners};
-use crate::failure::{Failure, Outcome};
-use crate::grid::domain::Domain;
-use crate::sample::{Aabb, BLOCK, BlockEval, FieldSampler};
+use crate::base::failure::{Failure, Outcome};
+use crate::space::domain::Domain;
+use crate::space::{Aabb, BLOCK, BlockEval, FieldSampler};
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -92,7 +92,7 @@ pub fn marching_cubes(levelset: &dyn FieldSampler, domain: &Domain) -> Outcome<M
     let cube_layers = resolution[2] + 1;
     // Every slab's samples may be alive at once: the padded grid of f32 values.
     let padded = grid.padded.map(|n| n as f64);
-    let _samples = crate::budget::reserve(
+    let _samples = crate::engine::budget::reserve(
         padded[0] * padded[1] * padded[2] * 4.0,
         &format!(
             "meshing over {} x {} x {} cells (its samples)",
@@ -439,7 +439,7 @@ fn merge(slabs: Vec<SlabMesh>) -> Outcome<Mesh> {
         .map(|s| (s.positions.len(), s.triangles.len()))
         .fold((0, 0), |(p, t), (a, b)| (p + a, t + b));
     let bytes = (positions * std::mem::size_of::<DVec3>() + triangles * 12) as f64;
-    crate::budget::check(
+    crate::engine::budget::check(
         bytes,
         &format!("a mesh of {triangles} triangles and {positions} vertices"),
     )?;

@@ -39,8 +39,8 @@ pub use sphere::uv_sphere;
 
 pub use attributes::{Attribute, AttributeValue, Attributes};
 
-use crate::failure::{Failure, Outcome};
-use crate::sample::Aabb;
+use crate::base::failure::{Failure, Outcome};
+use crate::space::Aabb;
 use glam::DVec3;
 
 /// A triangle mesh: vertex positions in world space and triangles as indices into them,

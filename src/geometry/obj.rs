@@ -16,7 +16,7 @@
 
 use super::Mesh;
 use super::attributes::{Attribute, NORMAL, TEXTURE};
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 use glam::DVec3;
 use std::collections::HashMap;
 use std::fmt::Write;

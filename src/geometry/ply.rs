@@ -20,7 +20,7 @@ use super::attributes::{Attribute, NORMAL, TEXTURE};
 use super::ply_header::{
     Element, Format, Kind, Scalar, body_first_line, header_error, parse_header,
 };
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 use glam::DVec3;
 
 /// Reads a PLY file's triangles.

@@ -2,7 +2,7 @@
 //! properties, read before any of the body so that the body's size can be checked against
 //! what the header declares.
 
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) enum Format {

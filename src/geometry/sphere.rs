@@ -7,7 +7,7 @@
 
 use super::Mesh;
 use super::attributes::{Attribute, NORMAL, TEXTURE};
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 use glam::DVec3;
 use std::f64::consts::PI;
 

@@ -10,7 +10,7 @@
 use super::Mesh;
 use super::attributes::{Attribute, AttributeValue};
 use super::bvh::Bvh;
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 use glam::DVec3;
 use rayon::prelude::*;
 use std::collections::HashMap;

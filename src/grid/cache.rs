@@ -35,10 +35,10 @@ mod test_support;
 #[cfg(test)]
 mod tests;
 
-use crate::failure::{Failure, Outcome};
-use crate::grid::domain::Domain;
-use crate::grid::profile::{self, GridStats};
-use crate::sample::FieldSampler;
+use crate::base::failure::{Failure, Outcome};
+use crate::engine::profile::{self, GridStats};
+use crate::space::FieldSampler;
+use crate::space::domain::Domain;
 use glam::{DMat3, DVec3};
 use std::fmt;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
@@ -141,7 +141,7 @@ pub struct Cache {
     /// Default reads outside the domain, counted for a vector cache that may be a map.
     map_watch: Option<map_watch::MapWatch>,
     /// This cache's share of the run's memory budget, given back when it is dropped.
-    _memory: crate::budget::Reservation,
+    _memory: crate::engine::budget::Reservation,
 }
 
 /// A brick of a filled cache, for writers: `size` cells from cell `origin`.

@@ -10,12 +10,12 @@
 //! Ranges come from a table of per-8³-block extremes made once, widened by the stencil's
 //! weight bound like a cache's.
 
-use crate::grid::domain::Domain;
+use crate::engine::spare::Spare;
 use crate::grid::interp::{AxisStencil, axis_stencil};
 use crate::grid::points::{self, PointRead};
 use crate::grid::reach;
-use crate::grid::spare::Spare;
-use crate::sample::{Aabb, Interp};
+use crate::space::domain::Domain;
+use crate::space::{Aabb, Interp};
 use glam::{DMat3, DVec3};
 use rayon::prelude::*;
 

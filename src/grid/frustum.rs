@@ -21,10 +21,10 @@ pub use read::FrustumRead;
 #[cfg(test)]
 mod tests;
 
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 use crate::field::Field;
-use crate::grid::domain::Domain;
-use crate::sample::Aabb;
+use crate::space::Aabb;
+use crate::space::domain::Domain;
 use glam::{DMat3, DVec3};
 
 /// Where a camera is and what it sees: the numbers of a camera a frustum needs, for an image of
@@ -92,7 +92,7 @@ impl Frustum {
         // In floating point: sizes near the integer range's end must not overflow here.
         let padded = |n: usize| n as f64 + 2.0 * padding as f64;
         let cells = padded(width) * padded(height) * depth as f64;
-        crate::budget::check(
+        crate::engine::budget::check(
             cells * components as f64 * 4.0,
             &format!(
                 "a frustum cache of {} x {} x {depth} cells",

@@ -25,7 +25,7 @@
 //! `Cubic` is Catmull–Rom, the Keys cubic convolution kernel with `a = -½`, over the 4×4×4
 //! nearest centres: it reproduces quadratics exactly and is third-order accurate.
 
-use crate::sample::Interp;
+use crate::space::Interp;
 
 /// One axis of an interpolation stencil: cells `start .. start + len` with their weights.
 #[derive(Clone, Copy, Debug, PartialEq)]

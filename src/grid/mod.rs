@@ -1,17 +1,11 @@
 //! Grids: domains, the caches that sample fields over them, and grid file formats.
 
 pub mod cache;
-pub mod demand;
 pub mod dense;
-pub mod divfree;
-pub mod domain;
-pub mod fft;
 pub mod frustum;
 pub mod interp;
 pub mod points;
-pub mod profile;
 pub mod reach;
-pub mod spare;
 pub mod vdb;
 pub mod vdb_cache;
 

@@ -7,7 +7,7 @@
 //! generic over the grid kind and the number of components, so each combination compiles to
 //! its own tight loop, with no per-point dispatch.
 
-use crate::sample::Interp;
+use crate::space::Interp;
 use glam::{DMat3, DVec3};
 
 /// How one kind of grid reads a single point.

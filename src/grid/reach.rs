@@ -10,7 +10,7 @@
 //! cells that rule reads (two per axis for a linear read, four for a cubic one).
 
 use crate::grid::interp::{BORDER_WEIGHT_BOUND, CUBIC_WEIGHT_BOUND};
-use crate::sample::{Aabb, Interp, Lattice};
+use crate::space::{Aabb, Interp, Lattice};
 use glam::{BVec3, DVec3};
 
 /// The cells a region reads along each axis and the weight bound that applies there.

@@ -8,12 +8,12 @@
 //! Transforms with shear, reflection or different x and y voxel sizes are refused with a
 //! message, since a cache domain cannot represent them.
 
-use crate::budget::human as human_bytes;
-use crate::failure::grouped;
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::grouped;
+use crate::base::failure::{Failure, Outcome};
+use crate::engine::budget::human as human_bytes;
 use crate::grid::cache::{Cache, SparseBuilder};
-use crate::grid::domain::{Domain, memory_limit};
 use crate::grid::vdb::{self, Activity, Compression, VdbGrid, VdbMeta, VdbValues};
+use crate::space::domain::{Domain, memory_limit};
 use glam::{DMat3, DMat4, DQuat, DVec3};
 use std::path::Path;
 
@@ -180,7 +180,7 @@ pub fn save(path: &Path, grid: VdbGrid, keep: bool, metadata: &[(String, VdbMeta
     // Held from the read to the rename: runs appending to one file at once (a farm's tasks)
     // take turns, or each would write back the file it read and drop the others' grids.
     let _turn = if keep {
-        Some(crate::output::lock_for_update(path).map_err(|e| {
+        Some(crate::io::output::lock_for_update(path).map_err(|e| {
             Failure::new(format!(
                 "cannot add grid '{}' to the VDB file '{}': {e}",
                 grid.name,

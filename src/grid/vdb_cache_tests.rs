@@ -3,7 +3,7 @@
 
 use super::*;
 
-use crate::test_random::SplitMix as Random;
+use crate::base::test_random::SplitMix as Random;
 
 fn options(name: &str, class: GridClass) -> GridOptions {
     GridOptions {

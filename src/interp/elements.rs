@@ -11,8 +11,8 @@
 //! (`crate::field::node`), shared as they are between fields.
 
 use super::value::Value;
-use crate::budget::Reservation;
-use crate::failure::Outcome;
+use crate::base::failure::Outcome;
+use crate::engine::budget::Reservation;
 use std::ops::Deref;
 
 /// What one slot takes: a whole `Value`.
@@ -32,7 +32,7 @@ impl Elements {
     /// made them checked them beforehand, or they are small).
     pub fn new(items: Vec<Value>) -> Elements {
         let owned = items.iter().map(owned_bytes).sum();
-        let held = crate::budget::hold(storage_bytes(items.capacity(), owned));
+        let held = crate::engine::budget::hold(storage_bytes(items.capacity(), owned));
         Elements { items, owned, held }
     }
 
@@ -147,7 +147,7 @@ mod tests {
         // A budget no other test's live field graphs (which growth is checked beside) fill.
         let engine = crate::engine::Engine::with_memory_limit(1 << 50);
         let _entered = engine.enter();
-        let before = crate::budget::used();
+        let before = crate::engine::budget::used();
         let mut items = Elements::new(Vec::new());
         let mut grown = 0;
         for i in 0..1000 {
@@ -162,7 +162,7 @@ mod tests {
             // glibc's malloc serves from a 32-byte chunk.
             let expected = items.items.capacity() * SLOT_BYTES + (i + 1) * 32;
             assert_eq!(items.bytes(), expected as u64, "at {i} elements");
-            assert_eq!(crate::budget::used() - before, expected as u64);
+            assert_eq!(crate::engine::budget::used() - before, expected as u64);
         }
         // 4, 8, ..., 1024: nine growths.
         assert_eq!(grown, 9);
@@ -174,7 +174,7 @@ mod tests {
         assert_eq!(items.bytes(), (1024 * SLOT_BYTES + 999 * 32) as u64);
         drop(items);
         drop(copy);
-        assert_eq!(crate::budget::used(), before);
+        assert_eq!(crate::engine::budget::used(), before);
     }
 
     #[test]

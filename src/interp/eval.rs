@@ -5,12 +5,12 @@
 use super::registry::{self, Args, Resolution};
 use super::value::{Value, matrix_from_rows};
 use super::{CallSite, Flow, Frame, Interpreter, MAX_CALL_DEPTH};
+use crate::base::failure::Failure;
 use crate::check::types::{Type, unify};
-use crate::diagnostic::{Diagnostic, Stage};
-use crate::failure::Failure;
 use crate::field::Field;
 use crate::interp::ops;
 use crate::syntax::ast::*;
+use crate::syntax::diagnostic::{Diagnostic, Stage};
 use crate::syntax::span::Span;
 use std::collections::HashMap;
 

@@ -3,11 +3,11 @@
 
 use super::value::Value;
 use super::{Flow, Interpreter};
+use crate::base::failure::Failure;
 use crate::check::types::Type;
-use crate::diagnostic::{Diagnostic, Stage};
-use crate::failure::Failure;
 use crate::interp::ops;
 use crate::syntax::ast::*;
+use crate::syntax::diagnostic::{Diagnostic, Stage};
 use crate::syntax::span::Span;
 use std::rc::Rc;
 
@@ -61,7 +61,7 @@ impl Interpreter {
                 if let (true, "frame", Value::Int(frame)) = (*is_param, name.name.as_str(), &value)
                 {
                     // Frame patterns in paths (`####`) name this frame from now on.
-                    crate::output::set_frame(*frame);
+                    crate::engine::output::set_frame(*frame);
                 }
                 self.declare(&name.name, declared, value);
                 Ok(Flow::Normal)

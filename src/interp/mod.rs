@@ -16,19 +16,17 @@ mod exec;
 
 pub use exec::{override_value, parse_override};
 pub mod ops;
+pub mod paths;
+pub mod provenance;
 pub mod registry;
-// The did-you-mean helper lives with the checker, its main user; runtime messages share it.
-pub use crate::check::suggest;
-#[cfg(test)]
-mod agreement;
 #[cfg(test)]
 mod resolve_tests;
 pub mod value;
 
+use crate::base::failure::Failure;
 use crate::check::types::Type;
-use crate::diagnostic::{Diagnostic, Stage};
-use crate::failure::Failure;
 use crate::syntax::ast::{FuncDecl, Program};
+use crate::syntax::diagnostic::{Diagnostic, Stage};
 use crate::syntax::span::{SourceMap, Span};
 use std::cell::RefCell;
 use std::collections::HashMap;
@@ -90,7 +88,7 @@ pub struct Interpreter {
     /// Field graphs larger than this get a warning (once per run).
     pub graph_warning_nodes: usize,
     /// Where relative paths start and which files the run wrote (see `paths`).
-    pub files: crate::paths::ScriptFiles,
+    pub files: crate::interp::paths::ScriptFiles,
     /// Every `param` as it was set, in declaration order, with its value as text: what an
     /// output file records about the run that made it.
     pub param_values: Vec<(String, String)>,
@@ -128,7 +126,7 @@ impl Interpreter {
             written_caches: Vec::new(),
             map_watched: Vec::new(),
             map_tallies: Vec::new(),
-            files: crate::paths::ScriptFiles::default(),
+            files: crate::interp::paths::ScriptFiles::default(),
             param_values: Vec::new(),
         }
     }
@@ -151,7 +149,7 @@ impl Interpreter {
         on_value: &mut dyn FnMut(&mut Interpreter, Value),
     ) -> Result<(), Diagnostic> {
         self.define_functions(program);
-        crate::interrupt::clear();
+        crate::engine::interrupt::clear();
         for item in &program.items {
             let crate::syntax::ast::Item::Stmt(stmt) = item else {
                 continue;
@@ -195,7 +193,7 @@ impl Interpreter {
 
     /// "file:line:column" of a span.
     pub fn location(&self, span: Span) -> String {
-        crate::diagnostic::location(span, &self.sources.borrow())
+        crate::syntax::diagnostic::location(span, &self.sources.borrow())
     }
 
     /// A runtime error at `span`, with the current FELT call stack attached.
@@ -220,7 +218,7 @@ impl Interpreter {
     }
 
     fn check_interrupt(&self, span: Span) -> Result<(), Diagnostic> {
-        if crate::interrupt::requested() {
+        if crate::engine::interrupt::requested() {
             return Err(self.error(span, Failure::new("interrupted")));
         }
         Ok(())

@@ -3,7 +3,7 @@
 //! field is involved, both sides become fields and the result is a new graph node.
 
 use super::value::Value;
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 use crate::field::Field;
 use crate::syntax::ast::{BinaryOp, UnaryOp};
 use glam::{DMat3, DVec3};
@@ -38,7 +38,7 @@ pub fn binary(op: BinaryOp, l: Value, r: Value) -> Outcome<Value> {
     Ok(match (op, l, r) {
         (Add, Value::Str(a), Value::Str(b)) => {
             let bytes = a.len() as f64 + b.len() as f64;
-            crate::budget::check(bytes, &format!("a string of {bytes} bytes"))?;
+            crate::engine::budget::check(bytes, &format!("a string of {bytes} bytes"))?;
             Value::string(&format!("{a}{b}"))
         }
         (Eq, Value::Str(a), Value::Str(b)) => Value::Bool(a == b),

@@ -9,7 +9,7 @@
 
 use super::Interpreter;
 use super::value::Value;
-use crate::failure::Failure;
+use crate::base::failure::Failure;
 use std::collections::HashMap;
 use std::fmt;
 use std::ops::RangeInclusive;

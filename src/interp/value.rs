@@ -6,15 +6,15 @@
 //! the state they were read from (docs/language.md "Domains and caches").
 
 use super::elements::Elements;
+use crate::base::failure::Failure;
 use crate::check::types::{Shape, Type};
-use crate::failure::Failure;
 use crate::field::{Field, FieldKind};
 use crate::geometry::Mesh;
 use crate::grid::cache::Cache;
-use crate::grid::domain::Domain;
 use crate::particles::Particles;
 use crate::render::sky::Sky;
 use crate::render::{Camera, Light};
+use crate::space::domain::Domain;
 use glam::{DMat3, DVec3};
 use std::cell::RefCell;
 use std::fmt;

@@ -18,8 +18,8 @@ use super::evaluate::split;
 use super::guide::Guide;
 use super::random::Stream;
 use super::{Particles, Values};
-use crate::failure::{Failure, Outcome};
-use crate::sample::{BLOCK, BlockEval, FieldSampler};
+use crate::base::failure::{Failure, Outcome};
+use crate::space::{BLOCK, BlockEval, FieldSampler};
 use glam::DVec3;
 use rayon::prelude::*;
 

@@ -4,7 +4,7 @@
 //! regrouped by thread), so the `f32` noise inside a field sees the same block bases and gives
 //! the same values whatever the thread count.
 
-use crate::sample::{BLOCK, BlockEval};
+use crate::space::{BLOCK, BlockEval};
 
 /// Values of a `width`-component field at `points`, point-major into `out`
 /// (`out[i * width + c]`).

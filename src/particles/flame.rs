@@ -20,7 +20,7 @@
 //!   flam3's xform coefficients b, c, e, f (wave) or c, f (popcorn) for the same 2D flame.
 //!   Popcorn's y term reads x (flam3) where the thesis prints z; its z term reads x.
 
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 use crate::field::Field;
 use crate::field::node::MathFn;
 use glam::{DMat3, DVec3};
@@ -81,11 +81,13 @@ pub fn affine_from_coefficients(c: &[f64]) -> Outcome<(DMat3, DVec3)> {
     if c.iter().any(|v| !v.is_finite()) {
         return Err(Failure::new("affine coefficients must be finite"));
     }
-    let m = crate::interp::value::matrix_from_rows(
+    // The coefficients are given row by row.
+    let m = DMat3::from_cols(
         DVec3::new(c[0], c[1], c[2]),
         DVec3::new(c[4], c[5], c[6]),
         DVec3::new(c[8], c[9], c[10]),
-    );
+    )
+    .transpose();
     Ok((m, DVec3::new(c[3], c[7], c[11])))
 }
 
@@ -153,7 +155,7 @@ fn polar() -> Outcome<Polar> {
 /// The variation `name` as a vectorfield of the position, with its coefficients.
 pub fn variation(name: &str, params: &[f64]) -> Outcome<Field> {
     if !NAMES.contains(&name) {
-        let hint = crate::interp::suggest::closest(name, NAMES.iter().copied())
+        let hint = crate::base::suggest::closest(name, NAMES.iter().copied())
             .map(|s| format!("did you mean \"{s}\"? "))
             .unwrap_or_default();
         return Err(

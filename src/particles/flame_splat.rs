@@ -15,11 +15,11 @@ use super::chaos::{self, Report, Settings, Sink};
 use super::guide::Guide;
 use super::splat::{Indexer, Kernel, Landing, SplatReport, Target, check_shape, fixed, shares};
 use super::splat_bins::scale_for_magnitude;
-use crate::budget::Reservation;
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
+use crate::engine::budget::Reservation;
 use crate::grid::cache::{BRICK, BRICK_CELLS, Cache};
-use crate::grid::domain::Domain;
-use crate::sample::Aabb;
+use crate::space::Aabb;
+use crate::space::domain::Domain;
 use rayon::prelude::*;
 use std::sync::Mutex;
 
@@ -68,7 +68,7 @@ impl<const W: usize> LayerSums<W> {
                 "a flame splat takes a grid of fewer than 2^32 brick layers",
             ));
         }
-        let table = crate::budget::reserve((total * 4) as f64, "flame splat layer table")?;
+        let table = crate::engine::budget::reserve((total * 4) as f64, "flame splat layer table")?;
         Ok(LayerSums {
             row,
             columns: row * column,
@@ -117,7 +117,7 @@ impl<const W: usize> LayerSums<W> {
         let (run, start) = Self::run_and_start(s);
         if run == self.runs.len() {
             let len = RUN_LAYERS * Self::LAYER_SUMS;
-            self.memory.push(crate::budget::reserve(
+            self.memory.push(crate::engine::budget::reserve(
                 (len * 8) as f64,
                 "flame splat sums",
             )?);

@@ -10,8 +10,8 @@ use super::tests::in_pool;
 use super::{Particles, flame};
 use crate::field::{CompiledField, Field, MathFn};
 use crate::grid::cache::Cache;
-use crate::grid::domain::Domain;
-use crate::sample::FieldSampler;
+use crate::space::FieldSampler;
+use crate::space::domain::Domain;
 use glam::DVec3;
 
 /// Three flame maps (linear, swirl, spherical) with 3D pre-transforms, so dots fill a volume.

@@ -7,7 +7,7 @@
 //! `offset` (added to noise lookups, so guides sharing one noise field still differ) to 0.
 
 use super::Particles;
-use crate::failure::Outcome;
+use crate::base::failure::Outcome;
 use glam::DVec3;
 
 /// One guide's frame and parameters.

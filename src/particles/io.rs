@@ -11,7 +11,7 @@
 //! giant allocation.
 
 use super::{Particles, Values, check_name};
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Format {

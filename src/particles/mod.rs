@@ -32,7 +32,7 @@ mod splat_tests;
 #[cfg(test)]
 mod tests;
 
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 
 /// The values of one attribute, one per point.
 #[derive(Clone, Debug, PartialEq)]
@@ -248,7 +248,7 @@ pub fn check_added_attribute(set: &Particles, width: usize, gathered: bool) -> O
     let n = set.len();
     let attribute = (n * width * std::mem::size_of::<f32>()) as f64;
     let copies = if gathered { 2.0 } else { 1.0 };
-    crate::budget::check(
+    crate::engine::budget::check(
         2.0 * set.bytes() as f64 + copies * attribute,
         &format!("addattr's copy of {n} points with the attribute added"),
     )
@@ -256,5 +256,5 @@ pub fn check_added_attribute(set: &Particles, width: usize, gathered: bool) -> O
 
 /// Checks the run's memory budget for `points` points of these widths before allocating them.
 pub fn check_memory(points: usize, widths: &[usize], what: &str) -> Outcome<()> {
-    crate::budget::check((points as f64) * bytes_per_point(widths) as f64, what)
+    crate::engine::budget::check((points as f64) * bytes_per_point(widths) as f64, what)
 }

@@ -10,8 +10,8 @@
 //! a grid source, so it composes with every other field and is bounded by the points' box.
 
 use super::Particles;
-use crate::failure::{Failure, Outcome};
-use crate::sample::{Aabb, GridSource, Interp};
+use crate::base::failure::{Failure, Outcome};
+use crate::space::{Aabb, GridSource, Interp};
 use glam::DVec3;
 use std::collections::HashMap;
 use std::fmt;
@@ -83,7 +83,7 @@ impl PointField {
         if particles.len() > u32::MAX as usize {
             return Err(Failure::new("pointfield takes at most 4 billion points"));
         }
-        crate::budget::check(
+        crate::engine::budget::check(
             particles.len() as f64 * (24.0 + 8.0 * width as f64 + 16.0),
             "a pointfield",
         )?;

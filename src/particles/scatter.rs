@@ -9,8 +9,8 @@
 
 use super::Particles;
 use super::random::Stream;
-use crate::failure::{Failure, Outcome};
-use crate::sample::{Aabb, FieldSampler};
+use crate::base::failure::{Failure, Outcome};
+use crate::space::{Aabb, FieldSampler};
 use glam::DVec3;
 use rayon::prelude::*;
 

@@ -22,9 +22,9 @@
 
 use super::Particles;
 use super::splat_bins::{Bins, Entry, bin};
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 use crate::grid::cache::{BRICK, BRICK_CELLS, Cache, SparseBuilder};
-use crate::grid::domain::Domain;
+use crate::space::domain::Domain;
 use glam::{DMat3, DVec3};
 
 /// How a value is spread over cells.

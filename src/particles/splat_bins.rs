@@ -17,7 +17,7 @@
 
 use super::evaluate::split;
 use super::splat::{Indexer, PADDED, SplatReport, accumulate, interior};
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 use crate::grid::cache::{BRICK, BRICK_CELLS};
 use rayon::prelude::*;
 
@@ -110,13 +110,13 @@ pub(super) fn bin<const W: usize>(
     let batches = n.div_ceil(batch);
     let parts = rayon::current_num_threads().clamp(1, batch / CHUNK);
     let part_len = (batch / CHUNK).div_ceil(parts) * CHUNK;
-    let _binning = crate::budget::reserve(
+    let _binning = crate::engine::budget::reserve(
         (batch * 4 + parts * (total_bricks + 1) * 4) as f64,
         "splat binning",
     )?;
     let mut home = vec![OUTSIDE; batch];
     let mut entries: Vec<Entry<W>> = Vec::new();
-    let mut entry_memory = crate::budget::reserve(0.0, "splat bins")?;
+    let mut entry_memory = crate::engine::budget::reserve(0.0, "splat bins")?;
     let mut offsets = vec![vec![0u32; total_bricks + 1]; parts];
     let mut kept: Vec<Option<Box<[i64]>>> = Vec::new();
     let mut kept_memory = Vec::new();
@@ -185,7 +185,7 @@ pub(super) fn bin<const W: usize>(
         let lengths: Vec<usize> = offsets.iter().map(|o| o[total_bricks] as usize).collect();
         let needed: usize = lengths.iter().sum();
         if needed > entries.len() {
-            entry_memory = crate::budget::reserve(
+            entry_memory = crate::engine::budget::reserve(
                 (needed * std::mem::size_of::<Entry<W>>()) as f64,
                 "splat bins",
             )?;
@@ -259,7 +259,7 @@ pub(super) fn bin<const W: usize>(
         let fresh = (0..total_bricks)
             .filter(|&b| kept[b].is_none() && busy(b))
             .count();
-        kept_memory.push(crate::budget::reserve(
+        kept_memory.push(crate::engine::budget::reserve(
             (fresh * BRICK_CELLS * W * 8) as f64,
             "splat sums",
         )?);

@@ -5,7 +5,7 @@
 use super::Particles;
 use super::splat::{Deposit, Indexer, Kernel, splat};
 use crate::grid::cache::Cache;
-use crate::grid::domain::Domain;
+use crate::space::domain::Domain;
 use glam::DVec3;
 
 /// `x × y × z` cells of size 1 from the origin.
@@ -223,7 +223,7 @@ fn an_unrotated_domain_lands_particles_as_the_full_matrix_does() {
         f32::NAN,
         1e-30,
     ];
-    let mut rng = crate::test_random::SplitMix(5);
+    let mut rng = crate::base::test_random::SplitMix(5);
     let mut points = Vec::new();
     for &x in &special {
         for &y in &special {

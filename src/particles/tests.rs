@@ -9,8 +9,8 @@ use super::wisp::Walk;
 use super::{Particles, Values, chaos, flame, guide, wisp};
 use crate::field::{CompiledField, FieldValue, probe};
 use crate::grid::cache::Cache;
-use crate::grid::domain::Domain;
-use crate::sample::{FieldSampler, GridSource, Interp};
+use crate::space::domain::Domain;
+use crate::space::{FieldSampler, GridSource, Interp};
 use glam::DVec3;
 use std::f64::consts::PI;
 

@@ -22,8 +22,8 @@ use super::evaluate::{at_points, split};
 use super::guide::Guide;
 use super::random::Stream;
 use super::{Particles, Values};
-use crate::failure::{Failure, Outcome};
-use crate::sample::FieldSampler;
+use crate::base::failure::{Failure, Outcome};
+use crate::space::FieldSampler;
 use glam::DVec3;
 use rayon::prelude::*;
 

@@ -16,7 +16,7 @@
 
 use crate::grid::next_identity;
 use crate::render::cie1931::{CMF, FIRST_NM, STEP_NM};
-use crate::sample::{Aabb, GridSource, Interp};
+use crate::space::{Aabb, GridSource, Interp};
 use glam::{DMat3, DVec3};
 use std::sync::{Arc, OnceLock};
 

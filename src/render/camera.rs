@@ -7,8 +7,8 @@
 //! the top row, and a sample at raster offset `(jx, jy)` inside it is the ray through that point;
 //! one sample per pixel goes through the pixel's centre.
 
-use crate::failure::vector_text;
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::vector_text;
+use crate::base::failure::{Failure, Outcome};
 use glam::DVec3;
 
 /// `v`'s length, without overflow or underflow for components near the float range's ends.
@@ -134,7 +134,7 @@ impl Camera {
     /// How far a ray's positions can be trusted: the spacing of floating-point numbers at the
     /// farthest of the eye and `bounds`'s corners. A render whose step is not well above it
     /// would sample noise.
-    pub fn precision_over(&self, bounds: &crate::sample::Aabb) -> f64 {
+    pub fn precision_over(&self, bounds: &crate::space::Aabb) -> f64 {
         let farthest = [self.eye, bounds.min, bounds.max]
             .iter()
             .map(|p| p.abs().max_element())
@@ -315,7 +315,7 @@ mod tests {
         let expected = DVec3::splat(-1.0).normalize();
         assert!((far.forward() - expected).length() < 1e-15);
         assert!(far.right.is_finite() && far.true_up.is_finite());
-        let box_ = crate::sample::Aabb::new(DVec3::splat(-1.0), DVec3::ONE);
+        let box_ = crate::space::Aabb::new(DVec3::splat(-1.0), DVec3::ONE);
         assert!(far.precision_over(&box_) > 1e284);
         let near = Camera::new(DVec3::new(0.0, 0.0, 5.0), DVec3::ZERO, DVec3::Y, 40.0).unwrap();
         assert!(near.precision_over(&box_) < 1e-14);

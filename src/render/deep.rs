@@ -402,10 +402,10 @@ pub(super) fn gather(
     tiles: &[super::tile::TileOutput],
     width: usize,
     height: usize,
-) -> crate::failure::Outcome<DeepImage> {
+) -> crate::base::failure::Outcome<DeepImage> {
     let total: usize = tiles.iter().map(|t| t.deep_samples.len()).sum();
     let bytes = total * std::mem::size_of::<DeepSample>() + width * height * 8;
-    let _image = crate::budget::reserve(
+    let _image = crate::engine::budget::reserve(
         bytes as f64,
         &format!("a {width} x {height} deep image of {total} samples"),
     )?;

@@ -18,7 +18,7 @@
 
 use super::deep::DeepImage;
 use super::image::{ExrOptions, HeaderValue};
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 use std::io::Write;
 use std::path::Path;
 
@@ -44,7 +44,7 @@ pub fn write_deep(path: &Path, image: &DeepImage, options: &ExrOptions) -> Outco
             image.width, image.height
         )));
     }
-    if let Some(band) = super::band::active() {
+    if let Some(band) = crate::engine::band::active() {
         return Err(Failure::new(format!(
             "deep images cannot be written in bands (this is band {} of {})",
             band.index, band.count
@@ -53,11 +53,11 @@ pub fn write_deep(path: &Path, image: &DeepImage, options: &ExrOptions) -> Outco
     }
     let chunks = encode_lines(image);
     let bytes: usize = chunks.iter().map(Vec::len).sum();
-    let _file = crate::budget::reserve(
+    let _file = crate::engine::budget::reserve(
         bytes as f64,
         &format!("writing a {} x {} deep image", image.width, image.height),
     )?;
-    crate::output::write_atomically(path, |file| {
+    crate::io::output::write_atomically(path, |file| {
         let mut out = std::io::BufWriter::new(file);
         let header = header(image, options);
         out.write_all(&header).map_err(|e| e.to_string())?;

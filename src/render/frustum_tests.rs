@@ -4,16 +4,16 @@
 //! a frustum's cell centres sit on the rays through the camera's pixel centres.
 
 use super::path::majorant::Majorants;
+use crate::base::test_random::SplitMix;
 use crate::field::noise::NoiseKind;
 use crate::field::{CompiledField, Field};
 use crate::grid::cache::Cache;
-use crate::grid::domain::Domain;
 use crate::grid::frustum::{Frustum, FrustumRead};
 use crate::render::settings::{Integrator, RenderSettings};
 use crate::render::testing::plain_scene;
 use crate::render::{Camera, Image, Light, render};
-use crate::sample::{Aabb, FieldSampler, GridSource};
-use crate::test_random::SplitMix;
+use crate::space::domain::Domain;
+use crate::space::{Aabb, FieldSampler, GridSource};
 use glam::DVec3;
 use std::sync::Arc;
 

@@ -12,7 +12,7 @@
 //! through `output::write_atomically`, so a crash or a full disk never leaves a half-written
 //! image under the requested name.
 
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 use crate::render::view::View;
 use std::collections::HashSet;
 use std::io::{BufWriter, Write};
@@ -124,7 +124,7 @@ pub fn write_image_viewed(
 ) -> Outcome<u64> {
     // The writers lay the channels out again before encoding them.
     let channels = 4 + image.aovs.len();
-    let _copy = crate::budget::reserve(
+    let _copy = crate::engine::budget::reserve(
         (image.width * image.height * channels * 4) as f64,
         &format!("writing a {} x {} image", image.width, image.height),
     )?;
@@ -134,7 +134,7 @@ pub fn write_image_viewed(
         .and_then(|e| e.to_str())
         .map(|e| e.to_ascii_lowercase());
     let mut clamped = 0;
-    if let Some(band) = super::band::active()
+    if let Some(band) = crate::engine::band::active()
         && matches!(extension.as_deref(), Some("exr" | "png"))
     {
         let (cropped, placement) = super::band::crop(image, band)?;
@@ -162,7 +162,7 @@ fn atomically(
     path: &Path,
     write: impl FnOnce(&mut std::fs::File) -> Result<(), String>,
 ) -> Outcome<()> {
-    crate::output::write_atomically(path, write)
+    crate::io::output::write_atomically(path, write)
         .map_err(|e| Failure::new(format!("cannot write image '{}': {e}", path.display())))
 }
 

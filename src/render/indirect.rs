@@ -41,8 +41,8 @@ use super::phase::Phase;
 use super::photons::{Cells, IMPORTANCE_FLOOR, Importance, PhotonBudget, PhotonInputs, Tally};
 use super::settings::RenderSettings;
 use super::space::clip_to_box;
-use crate::failure::{Failure, Outcome};
-use crate::sample::{Aabb, BlockEval, FieldSampler};
+use crate::base::failure::{Failure, Outcome};
+use crate::space::{Aabb, BlockEval, FieldSampler};
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -79,7 +79,7 @@ pub struct IndirectGrid {
     /// Cells estimated, of all.
     pub estimated: usize,
     /// The run's memory budget held for the cells.
-    _reservation: crate::budget::Reservation,
+    _reservation: crate::engine::budget::Reservation,
 }
 
 /// What estimating a grid reads: the path tracer's view of the medium, its majorants, the
@@ -201,8 +201,10 @@ impl IndirectGrid {
         // two halves and first scatterings while they are traced, then sums and masses).
         let photon_cells = photons.map_or(0, |_| total * refine.pow(3));
         let bytes = total * std::mem::size_of::<DVec3>() + photon_cells * PHOTON_CELL_BYTES;
-        let reservation =
-            crate::budget::reserve(bytes as f64, &format!("an indirect grid of {total} cells"))?;
+        let reservation = crate::engine::budget::reserve(
+            bytes as f64,
+            &format!("an indirect grid of {total} cells"),
+        )?;
         let tally = match photons {
             Some(photons) => {
                 let mut values = vec![1.0; total];
@@ -231,7 +233,7 @@ impl IndirectGrid {
             .map_init(
                 || arrivals.medium(),
                 |medium, n| {
-                    if crate::interrupt::requested() {
+                    if crate::engine::interrupt::requested() {
                         return None;
                     }
                     let index = needed[n];

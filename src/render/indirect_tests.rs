@@ -6,7 +6,7 @@
 use crate::render::settings::{Integrator, RenderSettings};
 use crate::render::testing::{Ball, Pieces, plain_scene};
 use crate::render::{Camera, Image, Light, Phase, Scene, render, render_with_stats};
-use crate::sample::Aabb;
+use crate::space::Aabb;
 use glam::DVec3;
 
 fn camera() -> Camera {

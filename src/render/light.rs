@@ -7,7 +7,7 @@
 //! light *travels* (the sun high overhead is `(0, -1, 0)`), and a point light's strength falls
 //! off as `1/r²` with `color` its strength at distance 1.
 
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 use glam::DVec3;
 
 /// Parallel light from infinitely far away, like the sun.

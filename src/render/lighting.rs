@@ -28,9 +28,9 @@ use super::space::clip_to_box;
 use super::transmittance::{
     ColumnScratch, LightGrid, TransmissivityMethod, light_columns, march_columns, sweeps,
 };
-use crate::failure::Outcome;
-use crate::grid::domain::Domain;
-use crate::sample::{Aabb, BlockEval, FieldSampler};
+use crate::base::failure::Outcome;
+use crate::space::domain::Domain;
+use crate::space::{Aabb, BlockEval, FieldSampler};
 use glam::DVec3;
 
 /// Default shadow-grid cells along the box's longest side, at most: swept grids, and grids where
@@ -121,7 +121,7 @@ impl<'a> Illumination<'a> {
                     (TransmissivityMethod::Sweep, None) => grid_domain(density),
                     _ => None,
                 };
-                let stats = crate::grid::profile::register("lightgrid", light_label(method));
+                let stats = crate::engine::profile::register("lightgrid", light_label(method));
                 let mut grids = Vec::with_capacity(lights.len());
                 for light in lights {
                     let started = std::time::Instant::now();
@@ -319,7 +319,7 @@ fn shadow_domain(
 mod tests {
     use super::*;
     use crate::render::settings::MultiScatter;
-    use crate::sample::FnField;
+    use crate::space::FnField;
 
     fn illumination<'a>(lights: &'a [Light], settings: &RenderSettings) -> Illumination<'a> {
         let empty = FnField::new(1, |_p: DVec3, out: &mut [f64]| out[0] = 0.0);

@@ -39,7 +39,7 @@ use super::settings::RenderSettings;
 use super::space::Occupancy;
 use super::tile::{InputCounts, MarchStats, Rays, TileOutput};
 use super::transmittance::ColumnScratch;
-use crate::sample::{Aabb, BLOCK, BlockEval, FieldSampler};
+use crate::space::{Aabb, BLOCK, BlockEval, FieldSampler};
 use glam::DVec3;
 
 /// Pixels along a tile's side at one sample per pixel.

@@ -62,9 +62,9 @@ pub use settings::{Adaptive, Aovs, Integrator, MultiScatter, RenderSettings, Sha
 pub use tile::{InputCounts, MarchStats};
 pub use transmittance::{TransmissivityMethod, transmissivity};
 
-use crate::failure::{Failure, Outcome};
-use crate::failure::{grouped, vector_text};
-use crate::sample::{Aabb, FieldSampler};
+use crate::base::failure::{Failure, Outcome};
+use crate::base::failure::{grouped, vector_text};
+use crate::space::{Aabb, FieldSampler};
 use glam::DVec3;
 use lighting::Illumination;
 use march::{Frame, Worker, side_rays, tile_side};
@@ -300,7 +300,7 @@ fn render_layers(
     if settings.integrator == Integrator::Path {
         let channels = path::aov_names(settings).len();
         let bytes = settings.width as f64 * settings.height as f64 * (16.0 + 4.0 * channels as f64);
-        let _framebuffer = crate::budget::reserve(
+        let _framebuffer = crate::engine::budget::reserve(
             2.0 * bytes,
             &format!(
                 "a {} x {} image with {} channels (its rows and the image)",
@@ -343,7 +343,7 @@ fn render_layers(
     // The tiles and the image they are gathered into, from the budget before any ray is
     // marched: a framebuffer too large for memory fails here, not after the render.
     let bytes = pixels * (16.0 + 4.0 * aov_names.len() as f64);
-    let _framebuffer = crate::budget::reserve(
+    let _framebuffer = crate::engine::budget::reserve(
         2.0 * bytes,
         &format!(
             "a {} x {} image with {} channels (its tiles and the image)",
@@ -355,7 +355,7 @@ fn render_layers(
 
     // Deep output: every worker's curves, one tile of rays each (`deep::curve_points`).
     let _curves = match settings.deep {
-        Some(most) => Some(crate::budget::reserve(
+        Some(most) => Some(crate::engine::budget::reserve(
             (rayon::current_num_threads() * deep::curve_bytes(most, side_rays(settings.spp)))
                 as f64,
             "the deep image's curves along each worker's rays",
@@ -407,7 +407,7 @@ fn render_layers(
             || Worker::new(&frame),
             |worker, tile| {
                 // A Ctrl-C at the REPL abandons the remaining tiles.
-                if crate::interrupt::requested() {
+                if crate::engine::interrupt::requested() {
                     return None;
                 }
                 let out = worker.tile(&frame, tile);

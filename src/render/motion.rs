@@ -19,8 +19,8 @@
 //! reads every point where it was, so its image is the still image bit for bit.
 
 use super::camera::jitter;
-use crate::failure::{Failure, Outcome};
-use crate::sample::{Aabb, BlockEval, FieldSampler, GridSource};
+use crate::base::failure::{Failure, Outcome};
+use crate::space::{Aabb, BlockEval, FieldSampler, GridSource};
 use glam::DVec3;
 use std::sync::Arc;
 

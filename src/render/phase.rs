@@ -8,7 +8,7 @@
 //! update (eq. 1.3) unchanged; every phase here averages to 1 over the sphere, so switching
 //! phase redistributes light without changing its total.
 
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 
 /// A phase function.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]

@@ -73,7 +73,7 @@ impl Progress {
             eprintln!(
                 "{}",
                 line(
-                    crate::output::current_frame(),
+                    crate::engine::output::current_frame(),
                     plain.0,
                     self.total,
                     self.started.elapsed()

@@ -9,8 +9,8 @@
 use super::phase::Phase;
 use super::sky::Sky;
 use super::transmittance::TransmissivityMethod;
-use crate::failure::{Failure, Outcome};
-use crate::sample::Aabb;
+use crate::base::failure::{Failure, Outcome};
+use crate::space::Aabb;
 use glam::DVec3;
 
 /// How the light reaching a sample through the volume (`T_L`) is found.

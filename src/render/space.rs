@@ -9,7 +9,7 @@
 //! (a closure) simply leaves every brick occupied.
 
 use super::camera::Ray;
-use crate::sample::{Aabb, FieldSampler};
+use crate::space::{Aabb, FieldSampler};
 use glam::DVec3;
 
 /// The most bricks along one axis of the box.
@@ -281,7 +281,7 @@ pub(super) fn lattice_region(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sample::BlockEval;
+    use crate::space::BlockEval;
 
     /// A ball of density whose range is exact on boxes: zero unless the box meets the ball.
     struct Balls(Vec<(DVec3, f64)>);
@@ -380,7 +380,7 @@ mod tests {
 
     #[test]
     fn unknown_range_leaves_one_run_over_the_whole_chord() {
-        let field = crate::sample::FnField::new(1, |_p: DVec3, out: &mut [f64]| out[0] = 1.0);
+        let field = crate::space::FnField::new(1, |_p: DVec3, out: &mut [f64]| out[0] = 1.0);
         let bounds = Aabb::new(DVec3::splat(-1.0), DVec3::splat(1.0));
         let grid = Occupancy::build(&field, None, bounds, 0.01);
         assert_eq!(grid.empty_bricks, 0);

@@ -15,7 +15,7 @@
 use super::camera::Camera;
 use super::exr_header::{RowMatrix, transform_point, world_to_ndc};
 use super::settings::Aovs;
-use crate::sample::BlockEval;
+use crate::space::BlockEval;
 use glam::DVec3;
 
 /// The channel names of the surface AOVs asked for, in the order `Surface::pixel` writes them.

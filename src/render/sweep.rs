@@ -10,8 +10,8 @@
 //! where the column bends to zero on the face and the walk continues one more slice instead.
 
 use super::light::Light;
-use crate::grid::domain::Domain;
-use crate::grid::spare::Spare;
+use crate::engine::spare::Spare;
+use crate::space::domain::Domain;
 use glam::DVec3;
 use rayon::prelude::*;
 

@@ -2,7 +2,7 @@
 //! range is exact, and which count how many points they were asked to evaluate (and how many of
 //! those fell inside a box the test declares off-limits, e.g. one that is certainly empty).
 
-use crate::sample::{Aabb, BlockEval, FieldSampler};
+use crate::space::{Aabb, BlockEval, FieldSampler};
 use glam::DVec3;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -144,7 +144,7 @@ pub fn chord_in_ball(origin: DVec3, dir: DVec3, centre: DVec3, radius: f64) -> f
 /// A scene of `density` alone (no colour, emission, holdout or motion) seen by `camera` under
 /// `lights`: what most render tests draw.
 pub fn plain_scene<'a>(
-    density: &'a dyn crate::sample::FieldSampler,
+    density: &'a dyn crate::space::FieldSampler,
     camera: super::Camera,
     lights: Vec<super::Light>,
 ) -> super::Scene<'a> {

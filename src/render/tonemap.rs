@@ -9,7 +9,7 @@
 //!   emission (k is `brightness`, flam3's brightness·contrast knob; 1 by default), then flam3's
 //!   gamma (`1/gamma` on the scaled value, 4 by default in flam3, given here as `gamma`).
 
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum ToneMap {

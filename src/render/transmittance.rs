@@ -21,10 +21,10 @@
 
 use super::light::Light;
 use super::sweep::{WORKING, sweep};
-use crate::budget::Reservation;
-use crate::failure::{Failure, Outcome};
-use crate::grid::domain::Domain;
-use crate::sample::{Aabb, BLOCK, BlockEval, FieldSampler};
+use crate::base::failure::{Failure, Outcome};
+use crate::engine::budget::Reservation;
+use crate::space::domain::Domain;
+use crate::space::{Aabb, BLOCK, BlockEval, FieldSampler};
 use glam::{DMat3, DVec3};
 use rayon::prelude::*;
 

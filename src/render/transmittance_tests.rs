@@ -1,6 +1,6 @@
 use super::*;
 use crate::render::testing::{Ball, Pieces, chord_in_ball};
-use crate::sample::FnField;
+use crate::space::FnField;
 use std::sync::atomic::Ordering;
 
 fn cube(side: f64, cell: f64) -> Domain {

@@ -15,7 +15,7 @@
 //! 1 as 0.59, 4 as 0.86, and 16 (the top of the encoding) and above as 0.995 to 0.997.
 
 use super::working_space::{PRIMARIES, REC2020_PRIMARIES, rgb_to_xyz};
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 use glam::{DMat3, DVec3};
 
 /// How a PNG preview shows scene-linear colour.

@@ -2,6 +2,7 @@
 
 mod actions;
 pub mod ast;
+pub mod diagnostic;
 pub mod lexer;
 pub mod parse;
 pub mod span;

@@ -3,8 +3,8 @@
 
 #![allow(dead_code)]
 
-use felt::diagnostic::{self, Diagnostic};
 use felt::session::Session;
+use felt::syntax::diagnostic::{self, Diagnostic};
 use std::cell::RefCell;
 use std::io::Write;
 use std::path::Path;
@@ -37,7 +37,7 @@ pub struct Outcome {
     pub rendered: String,
     pub ok: bool,
     /// The run's `--profile` rows: the grids this run (and no other) made.
-    pub profile: Vec<felt::grid::profile::ProfileEntry>,
+    pub profile: Vec<felt::engine::profile::ProfileEntry>,
 }
 
 pub fn run_script(path: &Path, overrides: &[(&str, &str)]) -> Outcome {
@@ -54,7 +54,7 @@ pub fn run_script_on(
     let mut session = Session::with_engine(Box::new(out.clone()), engine).unwrap_or_else(|f| {
         panic!(
             "{}",
-            felt::diagnostic::render(&f.diagnostics, &f.sources, false)
+            felt::syntax::diagnostic::render(&f.diagnostics, &f.sources, false)
         )
     });
     session.interp.overrides = overrides

@@ -146,7 +146,7 @@ pub(super) fn intern(op: Op) -> NodeRef {
 
 /// Checks that the field graphs built so far fit in what is left of the memory budget. Cheap
 /// (one atomic read) unless they seem not to, when dead entries are swept out first.
-pub fn check_graph_memory() -> crate::failure::Outcome<()> {
+pub fn check_graph_memory() -> crate::base::failure::Outcome<()> {
     check_nodes(0.0, |live| format!("field graphs of {live} nodes")).map_err(|f| {
         f.with_help(
             "the script's fields have grown to more nodes than the budget holds: each nested \
@@ -161,7 +161,11 @@ pub fn check_graph_memory() -> crate::failure::Outcome<()> {
 /// Checks that `nodes` nodes yet to be made and `bytes` of other storage (an array's) fit
 /// beside the live graphs in what is left of the budget: graphs and arrays of fields grow
 /// together, and each alone fitting says nothing of both. `what` names the request.
-pub fn check_beside_graphs(nodes: f64, bytes: f64, what: &str) -> crate::failure::Outcome<()> {
+pub fn check_beside_graphs(
+    nodes: f64,
+    bytes: f64,
+    what: &str,
+) -> crate::base::failure::Outcome<()> {
     check_nodes_and(nodes, bytes, |live| match live {
         0 => what.to_string(),
         live => format!("{what}, beside field graphs of {live} nodes,"),
@@ -175,7 +179,7 @@ pub fn node_bytes() -> f64 {
 
 /// Checks that the live nodes and `more` nodes yet to be made fit in what is left of the
 /// budget; `what` names them, given the live count.
-fn check_nodes(more: f64, what: impl Fn(usize) -> String) -> crate::failure::Outcome<()> {
+fn check_nodes(more: f64, what: impl Fn(usize) -> String) -> crate::base::failure::Outcome<()> {
     check_nodes_and(more, 0.0, what)
 }
 
@@ -184,10 +188,11 @@ fn check_nodes_and(
     more: f64,
     other: f64,
     what: impl Fn(usize) -> String,
-) -> crate::failure::Outcome<()> {
+) -> crate::base::failure::Outcome<()> {
     let bytes = |count: usize| (count as f64 + more) * NODE_BYTES as f64 + other;
-    let fits =
-        |count: usize| bytes(count) + crate::budget::used() as f64 <= crate::budget::limit() as f64;
+    let fits = |count: usize| {
+        bytes(count) + crate::engine::budget::used() as f64 <= crate::engine::budget::limit() as f64
+    };
     if fits(LENGTH.load(Ordering::Relaxed)) {
         return Ok(());
     }
@@ -197,7 +202,7 @@ fn check_nodes_and(
         LENGTH.store(table.nodes.len(), Ordering::Relaxed);
         table.nodes.len()
     };
-    crate::budget::check(bytes(live), &what(live))
+    crate::engine::budget::check(bytes(live), &what(live))
 }
 
 /// How many nodes the table has made so far (a running count, never lowered by sweeps): the
@@ -224,7 +229,7 @@ pub fn check_projected_growth(
     done: usize,
     total: usize,
     then_divergence: bool,
-) -> crate::failure::Outcome<()> {
+) -> crate::base::failure::Outcome<()> {
     if done < 16_384 || done < total / 16 || done >= total {
         return Ok(());
     }

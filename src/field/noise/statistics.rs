@@ -4,7 +4,7 @@
 
 use super::tests::{KINDS, Stream, full_f32, full_f64, random_points};
 use super::*;
-use crate::sample::BLOCK;
+use crate::space::BLOCK;
 
 /// `∫₀¹ f` by the midpoint rule.
 fn integrate(f: impl Fn(f64) -> f64) -> f64 {

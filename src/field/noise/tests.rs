@@ -5,7 +5,7 @@
 
 use super::hash::{axis_terms, corner, edge_gradient, seed_key};
 use super::*;
-use crate::sample::BLOCK;
+use crate::space::BLOCK;
 
 pub(super) const KINDS: [NoiseKind; 3] = [NoiseKind::Perlin, NoiseKind::Simplex, NoiseKind::Worley];
 

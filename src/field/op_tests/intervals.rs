@@ -252,7 +252,7 @@ fn rough_grid(background: f64) -> Arc<Cache> {
         0.125,
     )
     .unwrap();
-    let field = crate::sample::FnField::new(1, |p: DVec3, out: &mut [f64]| {
+    let field = crate::space::FnField::new(1, |p: DVec3, out: &mut [f64]| {
         out[0] = ((p.x * 23.0).sin() * (p.y * 17.0).cos() + p.z * 2.0).round();
     });
     let cache = Cache::from_field(domain, 1, Arc::new(field), vec![background], "t".into());

@@ -23,8 +23,8 @@ use crate::field::noise::NoiseKind;
 use crate::field::program::Program;
 use crate::field::{CompiledField, Field};
 use crate::grid::cache::{BRICK, Cache};
-use crate::grid::domain::Domain;
-use crate::sample::{Aabb, BLOCK, FieldSampler, GridDerivative, GridSource, Interp};
+use crate::space::domain::Domain;
+use crate::space::{Aabb, BLOCK, FieldSampler, GridDerivative, GridSource, Interp};
 use glam::DVec3;
 use std::f64::consts::{FRAC_PI_2, PI};
 use std::sync::Arc;
@@ -110,7 +110,7 @@ fn every_kernel_kind(k: &Kernel) -> &'static str {
     }
 }
 
-use crate::test_random::SplitMix as Rng;
+use crate::base::test_random::SplitMix as Rng;
 
 /// Values of `roots` at `points`, root-major: `[root][point]`.
 fn tape(roots: &[NodeRef], points: &[[f64; 3]], precision: Precision) -> Vec<Vec<f64>> {

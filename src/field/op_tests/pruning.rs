@@ -5,10 +5,10 @@
 //! one side of a zero; and the maximum of many `max(profile, 0)` ellipsoids, the shape of cloud
 //! region volumes, must actually shrink to the one ellipsoid that reaches a box.
 
+use crate::base::test_random::SplitMix;
 use crate::field::node::MathFn;
 use crate::field::{CompiledField, Field};
-use crate::sample::{Aabb, FieldSampler};
-use crate::test_random::SplitMix;
+use crate::space::{Aabb, FieldSampler};
 use glam::DVec3;
 
 fn coordinate(i: usize) -> Field {
@@ -140,7 +140,7 @@ fn a_maximum_of_ellipsoids_prunes_to_the_one_that_reaches_a_box() {
     for i in 0..12 {
         let centre = DVec3::new(3.0 * i as f64, 0.0, 0.0);
         let radii = DVec3::new(1.0, 0.5, 0.8);
-        let profile = crate::cloud::ellipsoid_field(centre, radii).unwrap();
+        let profile = crate::field::shapes::ellipsoid_field(centre, radii).unwrap();
         region_volume = Field::max(&region_volume, &profile).unwrap();
     }
     let compiled = CompiledField::new(&region_volume);

@@ -2,7 +2,7 @@
 //! mesh approximates, and the winding number against its exact (unaccelerated) sum.
 
 use super::*;
-use crate::sample::Aabb;
+use crate::space::Aabb;
 use std::f64::consts::PI;
 
 /// Signed distance to the box `centre ± half`, positive inside.

@@ -8,7 +8,7 @@
 //! the area times that.
 
 use super::*;
-use crate::sample::{Aabb, BlockEval};
+use crate::space::{Aabb, BlockEval};
 use std::f64::consts::PI;
 use std::sync::atomic::{AtomicUsize, Ordering};
 

@@ -14,8 +14,8 @@ mod measures;
 mod robustness;
 
 use super::*;
-use crate::grid::domain::Domain;
-use crate::sample::{FieldSampler, FnField};
+use crate::space::domain::Domain;
+use crate::space::{FieldSampler, FnField};
 use glam::DVec3;
 
 /// The level set of a ball: its signed distance, positive inside.

@@ -9,7 +9,7 @@
 //! (`field::prune`); a range of exactly the background skips the evaluation.
 
 use super::{BRICK, BRICK_CELLS, Brick, Cache, MAX_WIDTH, local_index, lock};
-use crate::sample::{Aabb, BLOCK, BlockEval, FieldSampler};
+use crate::space::{Aabb, BLOCK, BlockEval, FieldSampler};
 use glam::DVec3;
 use rayon::prelude::*;
 use std::sync::atomic::Ordering;
@@ -89,10 +89,10 @@ impl Cache {
 
     /// Runs the whole-grid solves the pending bricks read (see `grid::demand`); outputs call
     /// this before `fill_all`, so that a failed solve is an error of the output.
-    pub fn prepare(&self) -> crate::failure::Outcome<()> {
+    pub fn prepare(&self) -> crate::base::failure::Outcome<()> {
         let source = lock(&self.source).clone();
         match source {
-            Some(source) => crate::grid::demand::solve_ahead(source.grids()),
+            Some(source) => crate::space::demand::solve_ahead(source.grids()),
             None => Ok(()),
         }
     }

@@ -140,8 +140,8 @@ impl Cache {
 mod tests {
     use super::*;
     use crate::field::Field;
-    use crate::grid::domain::Domain;
-    use crate::sample::{GridSource, Interp};
+    use crate::space::domain::Domain;
+    use crate::space::{GridSource, Interp};
 
     fn watched(field: &Field, tally: &Arc<AtomicU64>) -> Cache {
         let domain = Domain::with_cells(

@@ -17,8 +17,8 @@
 //! hash-consing.
 
 use super::Cache;
-use crate::failure::Outcome;
-use crate::sample::{Aabb, GridSource, Interp, Lattice};
+use crate::base::failure::Outcome;
+use crate::space::{Aabb, GridSource, Interp, Lattice};
 use glam::DVec3;
 use std::sync::Arc;
 

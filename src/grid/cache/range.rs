@@ -12,7 +12,7 @@
 
 use super::{BRICK, Cache, local_index};
 use crate::grid::reach;
-use crate::sample::{Aabb, GridSource, Interp};
+use crate::space::{Aabb, GridSource, Interp};
 use glam::{BVec3, DVec3};
 
 /// A range over at most this many cells (six per axis) reads the cells themselves where it

@@ -16,10 +16,10 @@ mod tests;
 
 use super::outside::Outside;
 use super::{BRICK, Cache, local_index, lock};
-use crate::grid::domain::Domain;
 use crate::grid::interp::{AxisStencil, axis_stencil};
 use crate::grid::points::{self, PointRead};
-use crate::sample::{Aabb, GridSource, Interp, Lattice};
+use crate::space::domain::Domain;
+use crate::space::{Aabb, GridSource, Interp, Lattice};
 use glam::{DMat3, DVec3};
 use std::sync::Arc;
 

@@ -1,7 +1,7 @@
 //! Fields, domains and helpers shared by the cache tests.
 
 use super::*;
-use crate::sample::{Aabb, BlockEval, FnField, GridSource, Interp};
+use crate::space::{Aabb, BlockEval, FnField, GridSource, Interp};
 
 pub(super) fn domain(origin: DVec3, lengths: DVec3, orientation: DVec3, cell: f64) -> Domain {
     Domain::with_cells(origin, lengths, orientation, cell, cell).unwrap()

@@ -1,7 +1,7 @@
 use super::test_support::*;
 use super::*;
-use crate::grid::domain::memory_limit;
-use crate::sample::{FnField, GridSource, Interp};
+use crate::space::domain::memory_limit;
+use crate::space::{FnField, GridSource, Interp};
 use rayon::prelude::*;
 use std::sync::Weak;
 

@@ -6,8 +6,8 @@
 //! about (`Frustum::index_box`), which keeps the path tracer's majorants sound.
 
 use super::Frustum;
-use crate::failure::Outcome;
-use crate::sample::{Aabb, BLOCK, GridSource, Interp};
+use crate::base::failure::Outcome;
+use crate::space::{Aabb, BLOCK, GridSource, Interp};
 use glam::DVec3;
 use std::sync::Arc;
 

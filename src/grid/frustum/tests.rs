@@ -3,11 +3,11 @@
 //! boxes, a filled cache's reads against the field at the cells' centres.
 
 use super::{Frustum, FrustumRead, View};
+use crate::base::test_random::SplitMix;
 use crate::field::noise::NoiseKind;
 use crate::field::{CompiledField, Field};
 use crate::grid::cache::Cache;
-use crate::sample::{Aabb, FieldSampler, GridSource, Interp};
-use crate::test_random::SplitMix;
+use crate::space::{Aabb, FieldSampler, GridSource, Interp};
 use glam::DVec3;
 use std::sync::Arc;
 

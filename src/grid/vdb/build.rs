@@ -9,7 +9,7 @@
 //! does.
 
 use super::{LEAF_VOXELS, TILE_SIZES, VdbGrid, VdbLeaf, VdbTile, VdbValues, align};
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 use std::collections::HashMap;
 
 /// Which voxels of a built grid are active.

@@ -5,7 +5,7 @@
 //! decision: a cursor may be limited to a sub-range of the file (one grid's bytes), so a
 //! corrupt grid cannot read — or make the reader re-read — the bytes of the grids after it.
 
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 use glam::DVec3;
 
 /// A bounds-checked reader over `bytes[..end]` that reports offsets within the whole file.

@@ -10,7 +10,7 @@
 use super::cursor::Cursor;
 use super::read_tree::{self, Scalar, TreeFormat, ValueFormat};
 use super::{VdbGrid, VdbMeta, VdbValues};
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 use glam::DMat4;
 use std::path::Path;
 
@@ -64,8 +64,8 @@ fn load(path: &Path) -> Outcome<Vec<u8>> {
         ))
     };
     // A VDB file is read whole, so it may be no larger than the memory budget.
-    let limit = crate::grid::domain::memory_limit();
-    crate::input::read_whole(path, limit, "a VDB file").map_err(|e| {
+    let limit = crate::space::domain::memory_limit();
+    crate::io::input::read_whole(path, limit, "a VDB file").map_err(|e| {
         cannot(&e).with_help("check the path; a relative one starts at the script's folder")
     })
 }
@@ -317,15 +317,15 @@ fn value_format(
 }
 
 fn read_archive(bytes: &[u8], wanted: Option<&str>) -> Outcome<Vec<VdbGrid>> {
-    let content = crate::input::sniff(bytes);
-    if content != crate::input::Content::Vdb {
+    let content = crate::io::input::sniff(bytes);
+    if content != crate::io::input::Content::Vdb {
         let failure = Failure::new(format!(
             "not an OpenVDB file: it does not start with the VDB magic number (it is {})",
             content.describe()
         ));
         return Err(match content {
-            crate::input::Content::Ply => failure.with_help("read meshes with loadshape"),
-            crate::input::Content::Text => {
+            crate::io::input::Content::Ply => failure.with_help("read meshes with loadshape"),
+            crate::io::input::Content::Text => {
                 failure.with_help("if it is an OBJ mesh, read it with loadshape")
             }
             _ => failure,

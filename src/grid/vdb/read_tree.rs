@@ -15,7 +15,7 @@ use super::cursor::Cursor;
 use super::half::f16_to_f32;
 use super::read::VERSION_NODE_MASK_COMPRESSION;
 use super::{LEAF_VOXELS, VdbLeaf, VdbTile};
-use crate::failure::Outcome;
+use crate::base::failure::Outcome;
 use rayon::prelude::*;
 use std::collections::HashSet;
 

@@ -10,7 +10,7 @@ use super::read::UNIQUE_NAME_SEPARATOR;
 use super::read_tree::{COMPRESS_ACTIVE_MASK, COMPRESS_ZIP};
 use super::write_tree::write_tree;
 use super::{Compression, VdbGrid, VdbMeta, VdbValues};
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 use glam::{DMat3, DVec3};
 use std::collections::{BTreeMap, HashMap, HashSet};
 use std::io::Write;
@@ -34,7 +34,7 @@ pub fn write_file_with_metadata(
     metadata: &[(String, VdbMeta)],
 ) -> Outcome<()> {
     let bytes = write_bytes_with_metadata(grids, compression, metadata)?;
-    crate::output::write_atomically(path, |file| {
+    crate::io::output::write_atomically(path, |file| {
         file.write_all(&bytes).map_err(|e| e.to_string())
     })
     .map_err(|e| Failure::new(format!("cannot write VDB file '{}': {e}", path.display())))

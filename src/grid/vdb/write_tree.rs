@@ -16,7 +16,7 @@ use super::read_tree::{
 };
 use super::write::put_u32;
 use super::{LEAF_VOXELS, TILE_SIZES, VdbGrid, VdbLeaf, align};
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 use std::collections::BTreeMap;
 
 type TileValue = ([f32; 3], bool);

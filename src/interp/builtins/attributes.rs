@@ -6,8 +6,8 @@
 //! whether a script holds a `vector[]` or a `float[]`. The one key decision: every builtin
 //! here returns a new shape and leaves its argument as it was, like every other felt value.
 
+use crate::base::failure::{Failure, Outcome};
 use crate::check::types::Type;
-use crate::failure::{Failure, Outcome};
 use crate::field::{Field, FieldKind, grad, sample_points};
 use crate::geometry::attributes::{NORMAL, POSITION};
 use crate::geometry::transfer::{Surface, transfer};
@@ -15,7 +15,7 @@ use crate::geometry::{Attribute, AttributeValue, Mesh, uv_sphere};
 use crate::grid::cache::Cache;
 use crate::interp::registry::{Args, Registry};
 use crate::interp::value::Value;
-use crate::sample::{FieldSampler, FnField, GridSource};
+use crate::space::{FieldSampler, FnField, GridSource};
 use glam::{DMat3, DVec3};
 use std::rc::Rc;
 use std::sync::Arc;

@@ -8,18 +8,19 @@
 //! state remembers the fields its probabilities came from, so stepping again with the same
 //! fields (the same graph) reuses the sampled region volume instead of sampling it anew.
 
+use crate::base::failure::{Failure, Outcome};
 use crate::cloud::{
-    CloudState, Planes, Probabilities, Probability, SmoothedCloud, Smoothing, Wind, ellipsoid_field,
+    CloudState, Planes, Probabilities, Probability, SmoothedCloud, Smoothing, Wind,
 };
-use crate::failure::{Failure, Outcome};
+use crate::engine::profile;
+use crate::field::shapes::ellipsoid_field;
 use crate::field::{CompiledField, Field};
 use crate::grid::cache::Cache;
-use crate::grid::domain::Domain;
-use crate::grid::profile;
 use crate::interp::Interpreter;
 use crate::interp::registry::{Args, Registry};
 use crate::interp::value::Value;
-use crate::sample::GridSource;
+use crate::space::GridSource;
+use crate::space::domain::Domain;
 use glam::DVec3;
 use std::rc::Rc;
 use std::sync::Arc;
@@ -38,7 +39,7 @@ struct Regions {
     fields: [Option<Field>; 3],
     probabilities: Arc<Probabilities>,
     /// The budget the sampled probabilities hold for as long as a state uses them.
-    _memory: Option<Arc<crate::budget::Reservation>>,
+    _memory: Option<Arc<crate::engine::budget::Reservation>>,
 }
 
 /// The channels' parameter names, in the order of `Probabilities`' fields.
@@ -187,7 +188,7 @@ fn cloudstep(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
     let stats = profile::register("cloudstep", &format!("cloudstep at {location}"));
     let mut next = None;
     for _ in 0..steps {
-        if crate::interrupt::requested() {
+        if crate::engine::interrupt::requested() {
             return Err(Failure::new("interrupted"));
         }
         let started = Instant::now();
@@ -263,7 +264,7 @@ fn sample_regions(
         // Sampling fills three 16-bit thresholds and three bits a cell; what is kept (the
         // channels that are not uniform) is held for as long as a state uses it.
         let cells = (planes.nx * planes.ny * planes.nz) as f64;
-        let sampling = crate::budget::reserve(
+        let sampling = crate::engine::budget::reserve(
             3.0 * (2.0 * cells + 8.0 * planes.len() as f64),
             "the automaton's region probabilities",
         )?;
@@ -282,7 +283,8 @@ fn sample_regions(
         stats.add_evaluated();
         stats.add_work(started.elapsed().as_nanos() as u64, bytes);
         drop(sampling);
-        let kept = crate::budget::reserve(bytes as f64, "the automaton's region probabilities")?;
+        let kept =
+            crate::engine::budget::reserve(bytes as f64, "the automaton's region probabilities")?;
         (Probabilities { hum, act, ext }, Some(Arc::new(kept)))
     };
     Ok(Regions {

@@ -3,7 +3,7 @@
 //! grid read every field kernel already knows (a 1-D grid whose x coordinate is T), so ranges,
 //! derivatives and compilation need nothing new.
 
-use crate::failure::Outcome;
+use crate::base::failure::Outcome;
 use crate::field::{self, Field};
 use crate::interp::Interpreter;
 use crate::interp::registry::{Args, Registry};

@@ -2,7 +2,7 @@
 //! timing, conversions and the default noise seed.
 
 use super::format;
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 use crate::interp::Interpreter;
 use crate::interp::registry::{Args, Registry};
 use crate::interp::value::Value;

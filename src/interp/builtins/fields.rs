@@ -2,14 +2,14 @@
 //! Each only builds graph nodes, except `probe` and `stats`, which are outputs: they compile
 //! the graph they need and evaluate it.
 
-use crate::diagnostic::{Diagnostic, Stage};
-use crate::failure::grouped;
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::grouped;
+use crate::base::failure::{Failure, Outcome};
 use crate::field::{self, Field, FieldValue};
 use crate::interp::Interpreter;
 use crate::interp::registry::{Args, Registry};
 use crate::interp::value::Value;
-use crate::sample::GridSource;
+use crate::space::GridSource;
+use crate::syntax::diagnostic::{Diagnostic, Stage};
 
 pub fn register(r: &mut Registry) {
     r.add(

@@ -4,8 +4,7 @@
 //! `flamewisp` and splats each dot as it is made, so no dot is stored.
 
 use super::particles::{compiled, count_of, floats_of, particles_of, seed_of, warn_outside};
-use crate::diagnostic::{Diagnostic, Stage};
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 use crate::field::CompiledField;
 use crate::interp::Interpreter;
 use crate::interp::registry::Args;
@@ -13,7 +12,8 @@ use crate::interp::value::Value;
 use crate::particles::flame_splat::{SplatInto, splat_flame};
 use crate::particles::splat::Kernel;
 use crate::particles::{chaos, guide};
-use crate::sample::FieldSampler;
+use crate::space::FieldSampler;
+use crate::syntax::diagnostic::{Diagnostic, Stage};
 use glam::DVec3;
 use std::sync::Arc;
 

@@ -2,7 +2,7 @@
 //! %g %s %%` with the flags `- + 0 space`, a width and a precision, following C's rules so that
 //! frame-numbered file names and tables come out exactly as a TD expects.
 
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 use crate::interp::value::Value;
 
 struct Spec {

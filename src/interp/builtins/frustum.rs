@@ -6,14 +6,14 @@
 //! index-to-world map, `cacheread` reads through the world-to-index map, and `splat` moves the
 //! particles into index space; the cache itself (bricks, budget, fills) never knows.
 
+use crate::base::failure::{Failure, Outcome};
 use crate::check::types::Shape;
-use crate::failure::{Failure, Outcome};
 use crate::field::Field;
 use crate::grid::frustum::{Frustum, FrustumRead};
 use crate::interp::registry::{Args, Registry};
 use crate::interp::value::{CacheVar, Value};
 use crate::particles::Particles;
-use crate::sample::GridSource;
+use crate::space::GridSource;
 use glam::DVec3;
 use std::cell::RefCell;
 use std::rc::Rc;

@@ -6,13 +6,13 @@
 //! exact at cell centres and interpolated between; outside its domain it reads minus the
 //! domain's diagonal, i.e. clearly outside.
 
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 use crate::field::{CompiledField, Field};
 use crate::geometry::{self, Mesh, MeshDistance};
 use crate::grid::cache::Cache;
 use crate::interp::registry::Registry;
 use crate::interp::value::Value;
-use crate::sample::{FieldSampler, GridSource};
+use crate::space::{FieldSampler, GridSource};
 use std::rc::Rc;
 use std::sync::Arc;
 

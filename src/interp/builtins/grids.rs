@@ -7,19 +7,19 @@
 //! captures the cache as it is, and a later `cachewrite` installs a new cache without touching
 //! fields already read.
 
+use crate::base::failure::{Failure, Outcome};
 use crate::check::types::Shape;
-use crate::diagnostic::{self, Diagnostic, Stage};
-use crate::failure::{Failure, Outcome};
 use crate::field::{CompiledField, Field};
 use crate::grid::cache::Cache;
 use crate::grid::cache::outside::{Outside, OutsideRead};
-use crate::grid::domain::Domain;
 use crate::grid::vdb::VdbMeta;
 use crate::grid::vdb_cache;
 use crate::interp::Interpreter;
 use crate::interp::registry::{Args, Registry};
 use crate::interp::value::{CacheVar, Value};
-use crate::sample::{GridDerivative, GridSource, Interp};
+use crate::space::domain::Domain;
+use crate::space::{GridDerivative, GridSource, Interp};
+use crate::syntax::diagnostic::{self, Diagnostic, Stage};
 use glam::{DMat3, DVec3};
 use std::cell::RefCell;
 use std::rc::Rc;
@@ -234,15 +234,15 @@ fn cachesave(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
             .to_string(),
         class,
         vector_type,
-        creator: crate::provenance::creator(),
+        creator: crate::interp::provenance::creator(),
     };
     let path = interp.files.writing(file)?;
     // Before the fill, which can take long: a file in the way should not cost it.
-    crate::output::check_writable(&path)
+    crate::io::output::check_writable(&path)
         .map_err(|e| Failure::new(format!("cannot write VDB file '{}': {e}", path.display())))?;
     let append = matches!(a.opt("append"), Some(Value::Bool(true)));
     let grid = vdb_cache::grid_of(&cache, &options)?;
-    let mut metadata: Vec<(String, VdbMeta)> = crate::provenance::of(interp)
+    let mut metadata: Vec<(String, VdbMeta)> = crate::interp::provenance::of(interp)
         .into_iter()
         .map(|(k, v)| (k, VdbMeta::String(v)))
         .collect();

@@ -2,7 +2,7 @@
 //! that builds a node. The plain form comes first in every entry so that `sin(1.0)` stays a
 //! float; a field anywhere among the arguments selects the field form.
 
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 use crate::field::{Field, MathFn};
 use crate::interp::Interpreter;
 use crate::interp::registry::{Args, Registry};

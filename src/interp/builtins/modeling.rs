@@ -8,7 +8,7 @@
 //! and `perlinworley` in [0, 1], `fbm` within ± the sum of its octave amplitudes
 //! `Σ rough^i` times its noise's range.
 
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 use crate::field::noise::NoiseKind;
 use crate::field::{self, Field, MathFn};
 use crate::interp::Interpreter;
@@ -119,7 +119,7 @@ pub fn register(r: &mut Registry) {
             let divfree = matches!(a.opt("divfree"), Some(Value::Bool(true)));
             let correlation = a.float("correlation")?;
             let field = |seed: u32, divfree: bool| {
-                crate::grid::fft::gaussian_random_field(d, correlation, seed, divfree)
+                crate::fluids::fft::gaussian_random_field(d, correlation, seed, divfree)
             };
             let data: Vec<Vec<f32>> = match (vector, divfree) {
                 (false, _) => vec![field(seed, false)?],
@@ -145,11 +145,11 @@ pub fn register(r: &mut Registry) {
                 interp.location(interp.call_span)
             ))
             .with_profile("gaussiannoise");
-            let grid: std::sync::Arc<dyn crate::sample::GridSource> = std::sync::Arc::new(cache);
+            let grid: std::sync::Arc<dyn crate::space::GridSource> = std::sync::Arc::new(cache);
             Ok(Value::Field(Field::from_grid(
                 grid,
-                crate::sample::Interp::Linear,
-                crate::sample::GridDerivative::Interpolant,
+                crate::space::Interp::Linear,
+                crate::space::GridDerivative::Interpolant,
             )?))
         },
     );

@@ -8,15 +8,15 @@
 //! domain, which the step treats as "no gradient" — points outside the domain stay where they
 //! are instead of moving by an extrapolated guess.
 
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 use crate::field::nacelle::{self, Step};
 use crate::field::{CompiledField, Field, sample_points};
 use crate::grid::cache::Cache;
-use crate::grid::domain::Domain;
 use crate::interp::Interpreter;
 use crate::interp::registry::{Args, Registry};
 use crate::interp::value::Value;
-use crate::sample::GridSource;
+use crate::space::GridSource;
+use crate::space::domain::Domain;
 use std::sync::Arc;
 
 pub fn register(r: &mut Registry) {

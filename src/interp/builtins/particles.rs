@@ -6,8 +6,7 @@
 //! was. Generators (`scatter`, `wisp`, `flamewisp`) are seeded by an explicit `seed`, so the
 //! same call gives the same points whatever else the script does.
 
-use crate::diagnostic::{Diagnostic, Stage};
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 use crate::field::{CompiledField, Field};
 use crate::interp::Interpreter;
 use crate::interp::elements::check_array;
@@ -17,7 +16,8 @@ use crate::particles::io::{self, FileKind};
 use crate::particles::pointfield::{Blend, PointField};
 use crate::particles::splat::{Deposit, Kernel};
 use crate::particles::{Particles, Values, flame, guide, scatter, wisp};
-use crate::sample::{FieldSampler, GridSource};
+use crate::space::{FieldSampler, GridSource};
+use crate::syntax::diagnostic::{Diagnostic, Stage};
 use glam::DVec3;
 use std::sync::Arc;
 
@@ -42,7 +42,7 @@ pub fn register(r: &mut Registry) {
         "reads points and their attributes from a PLY (ASCII or binary) or CSV file",
         |interp, a| {
             let path = a.string("path")?;
-            let bytes = crate::input::read_whole(
+            let bytes = crate::io::input::read_whole(
                 &interp.files.reading(path)?,
                 MAX_FILE_BYTES,
                 "a particle file",
@@ -72,7 +72,7 @@ pub fn register(r: &mut Registry) {
                 FileKind::PlyBinary
             };
             let bytes = io::write(set, kind)?;
-            crate::output::write_atomically(&target, |file| {
+            crate::io::output::write_atomically(&target, |file| {
                 use std::io::Write;
                 file.write_all(&bytes).map_err(|e| e.to_string())
             })
@@ -276,7 +276,7 @@ fn sample_at_points(field: &Field, set: &Particles) -> Outcome<Vec<f32>> {
     let width = field.kind().width();
     let points: Vec<[f64; 3]> = set.positions.iter().map(|p| p.map(|c| c as f64)).collect();
     use rayon::prelude::*;
-    const RUN: usize = 16 * crate::sample::BLOCK;
+    const RUN: usize = 16 * crate::space::BLOCK;
     let runs: Vec<Vec<f32>> = points
         .par_chunks(RUN)
         .map(|chunk| {

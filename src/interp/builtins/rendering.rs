@@ -5,8 +5,7 @@
 //! (or `bounds = domain`). Every option of the raymarcher is a keyword argument with the
 //! raymarcher's default, so `render("out.exr", density = rho, camera = cam)` is a complete call.
 
-use crate::diagnostic::{Diagnostic, Stage};
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 use crate::field::{CompiledField, Field};
 use crate::grid::cache::Cache;
 use crate::interp::Interpreter;
@@ -15,7 +14,8 @@ use crate::interp::value::Value;
 use crate::render::keywords::{self, Keyword, KeywordType, RenderOptions, Setting};
 use crate::render::transmittance::TransmissivityMethod;
 use crate::render::{self, Camera, Light, Scene};
-use crate::sample::GridSource;
+use crate::space::GridSource;
+use crate::syntax::diagnostic::{Diagnostic, Stage};
 use glam::DVec3;
 use std::rc::Rc;
 use std::sync::Arc;
@@ -212,24 +212,22 @@ fn run_render(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
     let settings = options.settings;
     let scene = Scene {
         density: &density,
-        color: color
-            .as_ref()
-            .map(|c| c as &dyn crate::sample::FieldSampler),
+        color: color.as_ref().map(|c| c as &dyn crate::space::FieldSampler),
         emission: emission
             .as_ref()
-            .map(|c| c as &dyn crate::sample::FieldSampler),
+            .map(|c| c as &dyn crate::space::FieldSampler),
         holdout: holdout
             .as_ref()
-            .map(|c| c as &dyn crate::sample::FieldSampler),
+            .map(|c| c as &dyn crate::space::FieldSampler),
         velocity: velocity
             .as_ref()
-            .map(|c| c as &dyn crate::sample::FieldSampler),
+            .map(|c| c as &dyn crate::space::FieldSampler),
         camera,
         lights,
     };
     let label = format!("render at {}", interp.location(interp.call_span));
     let started = std::time::Instant::now();
-    crate::output::check_writable(&path).map_err(|e| {
+    crate::io::output::check_writable(&path).map_err(|e| {
         Failure::new(format!("cannot write image '{}': {e}", path.display()))
             .with_help("write somewhere else, or move what is in the way")
     })?;
@@ -239,7 +237,7 @@ fn run_render(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
         settings.width,
         settings.height,
         half,
-        crate::provenance::of(interp),
+        crate::interp::provenance::of(interp),
     );
     let (image, render_stats, clamped) = if settings.deep.is_some() {
         let (image, deep, stats) = render::render_deep(&scene, &settings)?;
@@ -260,7 +258,7 @@ fn run_render(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
                 interp.call_span,
                 format!(
                     "{} sample{} above 65504, the largest half float, written as 65504",
-                    crate::failure::grouped(clamped),
+                    crate::base::failure::grouped(clamped),
                     if clamped == 1 { "" } else { "s" }
                 ),
             )
@@ -273,7 +271,7 @@ fn run_render(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
                 .with_help(warning.help),
         );
     }
-    let stats = crate::grid::profile::register("render", &label);
+    let stats = crate::engine::profile::register("render", &label);
     stats.add_instance(0);
     stats.add_evaluated();
     stats.add_work(

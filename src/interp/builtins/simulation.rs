@@ -5,12 +5,12 @@
 //! functions of `stdlib/fluids.felt`. The projection is the one step that cannot be written as
 //! a field expression: it needs the whole velocity at once.
 
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 use crate::field::{CompiledField, Field};
-use crate::grid::divfree::DivergenceFree;
+use crate::fluids::divfree::DivergenceFree;
 use crate::interp::registry::Registry;
 use crate::interp::value::Value;
-use crate::sample::{GridDerivative, GridSource, Interp};
+use crate::space::{GridDerivative, GridSource, Interp};
 use std::sync::Arc;
 
 pub fn register(r: &mut Registry) {
@@ -33,7 +33,7 @@ pub fn register(r: &mut Registry) {
 
 fn divergence_free(
     velocity: &Field,
-    domain: &crate::grid::domain::Domain,
+    domain: &crate::space::domain::Domain,
     label: String,
 ) -> Outcome<Field> {
     let solve = DivergenceFree::new(domain.clone(), CompiledField::shared(velocity), label)?;

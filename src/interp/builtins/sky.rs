@@ -6,7 +6,7 @@
 //! other's place; the daylight sky's sun is a plain distant light (`sunlight(sky)`), so it can
 //! go in `lights` and be named, shadowed and drawn like any other.
 
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 use crate::interp::registry::Registry;
 use crate::interp::value::Value;
 use crate::render::sky::Sky;

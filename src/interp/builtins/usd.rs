@@ -9,12 +9,12 @@
 //! `\` in the layer's own folder as a `/` when it anchors a relative path (it does not in the
 //! path itself), so under such a folder every path is written absolute.
 
-use crate::failure::{Failure, Outcome};
-use crate::frames::FrameRange;
+use crate::base::failure::{Failure, Outcome};
 use crate::interp::Interpreter;
 use crate::interp::registry::{Args, Registry};
 use crate::interp::value::Value;
-use crate::usd::{self, DataType, Grid, Layer};
+use crate::io::frames::FrameRange;
+use crate::io::usd::{self, DataType, Grid, Layer};
 use std::path::{Path, PathBuf};
 
 pub fn register(r: &mut Registry) {
@@ -82,7 +82,7 @@ fn usdvolume(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
                     .with_help("name each grid and its VDB files: \"density=smoke.####.vdb\""),
             );
         };
-        let files = match (crate::frames::has_pattern(file), &frames) {
+        let files = match (crate::io::frames::has_pattern(file), &frames) {
             (false, _) => vec![(None, asset_text(interp, file, &folder)?)],
             (true, None) => {
                 return Err(Failure::new(format!(
@@ -94,7 +94,7 @@ fn usdvolume(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
                 let mut files = Vec::with_capacity(range.frames.len());
                 for &frame in &range.frames {
                     let filled =
-                        crate::frames::fill(file, frame).unwrap_or_else(|| file.to_string());
+                        crate::io::frames::fill(file, frame).unwrap_or_else(|| file.to_string());
                     files.push((Some(frame), asset_text(interp, &filled, &folder)?));
                 }
                 files
@@ -138,7 +138,7 @@ fn usdvolume(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
         extent: (aabb.min, aabb.max),
     };
     let text = usd::text(&layer).map_err(Failure::new)?;
-    crate::output::write_atomically(&layer_path, |file| {
+    crate::io::output::write_atomically(&layer_path, |file| {
         use std::io::Write;
         file.write_all(text.as_bytes()).map_err(|e| e.to_string())
     })
@@ -153,7 +153,7 @@ fn usdvolume(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
 
 /// Where the layer lands: as any output, but one file for the whole sequence.
 fn layer_path(interp: &Interpreter, text: &str) -> Outcome<PathBuf> {
-    if crate::frames::has_pattern(text) {
+    if crate::io::frames::has_pattern(text) {
         return Err(Failure::new(format!(
             "the USD layer '{text}' has a frame pattern, but one layer holds every frame"
         ))
@@ -164,15 +164,17 @@ fn layer_path(interp: &Interpreter, text: &str) -> Outcome<PathBuf> {
 
 /// A relative path as `cachesave` lands it: under `--output-dir`, else beside the script.
 fn resolve(interp: &Interpreter, text: &str) -> Outcome<PathBuf> {
-    let path = PathBuf::from(crate::paths::expand(text)?);
+    let path = PathBuf::from(crate::interp::paths::expand(text)?);
     if path.is_absolute() {
         return Ok(path);
     }
-    Ok(match (crate::output::directory(), interp.files.base()) {
-        (Some(directory), _) => directory.join(&path),
-        (None, Some(base)) => base.join(&path),
-        (None, None) => path,
-    })
+    Ok(
+        match (crate::engine::output::directory(), interp.files.base()) {
+            (Some(directory), _) => directory.join(&path),
+            (None, Some(base)) => base.join(&path),
+            (None, None) => path,
+        },
+    )
 }
 
 /// The VDB file `text` as the layer in `folder` names it: `./` and the path below the folder,

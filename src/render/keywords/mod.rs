@@ -18,8 +18,8 @@ use super::settings::{Adaptive, Integrator};
 use super::sky::Sky;
 use super::tonemap::ToneMap;
 use super::view::View;
-use crate::failure::{Failure, Outcome};
-use crate::sample::Aabb;
+use crate::base::failure::{Failure, Outcome};
+use crate::space::Aabb;
 use glam::DVec3;
 
 /// A keyword's type in `render`'s signature, and how the builtin converts its value.
@@ -318,7 +318,7 @@ impl RenderOptions {
                 "leave {name} out, or write it from a second, flat render"
             )));
         }
-        if let Some(band) = super::band::active() {
+        if let Some(band) = crate::engine::band::active() {
             return Err(Failure::new(format!(
                 "deep images cannot be rendered in bands (this is band {} of {}): felt merge \
                  joins flat images only",

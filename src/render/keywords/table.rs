@@ -3,7 +3,7 @@
 //! with a keyword before them).
 
 use super::{Keyword, KeywordType, RenderOptions, Setting};
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 use crate::render::Phase;
 use crate::render::motion::ShutterPosition;
 use crate::render::settings::{Aovs, Integrator, MAX_BOUNCES, MultiScatter, Shadows};

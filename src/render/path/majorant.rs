@@ -10,9 +10,9 @@
 //! query. A field whose range is unknown or infinite somewhere in the box cannot be tracked
 //! without bias, and says so.
 
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 use crate::render::camera::Ray;
-use crate::sample::{Aabb, FieldSampler};
+use crate::space::{Aabb, FieldSampler};
 use glam::DVec3;
 
 /// The most cells along the box's longest side: a few range queries per cell over 32³ cells

@@ -40,8 +40,8 @@ use super::settings::RenderSettings;
 use super::sky::Sky;
 use super::space::clip_to_box;
 use super::{RenderStats, Scene};
-use crate::failure::{Failure, Outcome};
-use crate::sample::{Aabb, FieldSampler};
+use crate::base::failure::{Failure, Outcome};
+use crate::space::{Aabb, FieldSampler};
 use emitters::Emitter;
 use glam::DVec3;
 use majorant::{MAJORANT_CELLS, Majorants};
@@ -171,7 +171,7 @@ pub fn render(
         .map_init(
             || frame.medium(),
             |medium, y| {
-                if crate::interrupt::requested() {
+                if crate::engine::interrupt::requested() {
                     return None;
                 }
                 let row = frame.row(medium, y);

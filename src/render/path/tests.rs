@@ -6,16 +6,16 @@
 use super::majorant::Majorants;
 use super::sampling::PathRandom;
 use super::tracking::{Flight, Medium};
+use crate::base::test_random::SplitMix;
 use crate::field::noise::NoiseKind;
 use crate::field::{CompiledField, Field};
 use crate::grid::cache::Cache;
-use crate::grid::domain::Domain;
 use crate::render::camera::Ray;
 use crate::render::settings::{Integrator, RenderSettings, Shadows};
 use crate::render::testing::{Ball, Pieces};
 use crate::render::{Camera, Image, Light, Phase, Scene, render, render_with_stats};
-use crate::sample::{Aabb, BlockEval, FieldSampler, GridSource};
-use crate::test_random::SplitMix;
+use crate::space::domain::Domain;
+use crate::space::{Aabb, BlockEval, FieldSampler, GridSource};
 use glam::DVec3;
 use std::sync::Arc;
 

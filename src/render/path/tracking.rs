@@ -20,7 +20,7 @@ use super::majorant::Majorants;
 use super::sampling::PathRandom;
 use crate::render::camera::Ray;
 use crate::render::tile::InputCounts;
-use crate::sample::{BlockEval, FieldSampler};
+use crate::space::{BlockEval, FieldSampler};
 use glam::DVec3;
 
 /// The medium's fields and constants, with one thread's evaluators.

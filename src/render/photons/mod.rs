@@ -29,8 +29,8 @@ use super::path::Arrivals;
 use super::path::majorant::Majorants;
 use super::path::sampling::PathRandom;
 use super::phase::Phase;
-use crate::failure::{Failure, Outcome};
-use crate::sample::{Aabb, BlockEval, FieldSampler};
+use crate::base::failure::{Failure, Outcome};
+use crate::space::{Aabb, BlockEval, FieldSampler};
 use glam::DVec3;
 use noise::{ViewBins, relative_noise};
 use rayon::prelude::*;
@@ -217,7 +217,7 @@ impl Tally {
                     .map_init(
                         || inputs.arrivals.medium(),
                         |medium, &(light, chunk)| {
-                            if crate::interrupt::requested() {
+                            if crate::engine::interrupt::requested() {
                                 return None;
                             }
                             let mut sums = Sums::default();

@@ -8,7 +8,7 @@ use super::super::light::{DistantLight, PointLight};
 use super::super::path::majorant::Majorants;
 use super::super::path::sampling::{PathRandom, around};
 use super::Cells;
-use crate::sample::Aabb;
+use crate::space::Aabb;
 use glam::DVec3;
 use std::f64::consts::PI;
 

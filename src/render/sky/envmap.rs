@@ -10,7 +10,7 @@
 //! NaN and infinite texels are refused with where the first is.
 
 use super::latlong::{self, DrawnDirection, LatLongSampler};
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 use glam::{DQuat, DVec3};
 use std::path::Path;
 
@@ -36,7 +36,7 @@ pub struct EnvMap {
     to_map: DQuat,
     sampler: Option<LatLongSampler>,
     /// The run's memory budget held for the texels and the sampler's sums.
-    _reservation: Option<crate::budget::Reservation>,
+    _reservation: Option<crate::engine::budget::Reservation>,
     /// What the map was made from, for messages and printing.
     pub source: String,
     pub intensity: f64,
@@ -59,7 +59,8 @@ impl EnvMap {
             path,
             |size, _| {
                 let texels = size.width().saturating_mul(size.height());
-                let refusal = crate::budget::check(bytes_for(texels), "an environment map").err();
+                let refusal =
+                    crate::engine::budget::check(bytes_for(texels), "an environment map").err();
                 let fits = texels <= MOST_TEXELS && refusal.is_none();
                 let storage = if fits { texels } else { 0 };
                 (size.width(), vec![[0f32; 3]; storage], refusal)
@@ -129,7 +130,8 @@ impl EnvMap {
             ))
             .with_help("repair or clamp the image before lighting with it"));
         }
-        let reservation = crate::budget::reserve(bytes_for(texels.len()), "an environment map")?;
+        let reservation =
+            crate::engine::budget::reserve(bytes_for(texels.len()), "an environment map")?;
         for t in &mut texels {
             for c in t.iter_mut() {
                 *c = (c.max(0.0) as f64 * intensity) as f32;

@@ -18,7 +18,7 @@
 
 use super::latlong::{self, LatLongSampler};
 use super::sun;
-use crate::failure::{Failure, Outcome};
+use crate::base::failure::{Failure, Outcome};
 use crate::render::light::Light;
 use crate::render::working_space;
 use glam::{DMat3, DVec3};

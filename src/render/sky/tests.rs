@@ -7,10 +7,10 @@ use super::envmap::EnvMap;
 use super::latlong;
 use super::physical::{self, PhysicalSky};
 use super::{Sky, sun};
+use crate::base::test_random::SplitMix;
 use crate::render::settings::{Integrator, RenderSettings};
 use crate::render::testing::{Ball, Pieces};
 use crate::render::{Camera, Image, Light, Phase, Scene, render};
-use crate::test_random::SplitMix;
 use glam::DVec3;
 use std::f64::consts::PI;
 use std::sync::Arc;
@@ -328,7 +328,7 @@ fn render_ball(density: f64, sky: Sky, lights: Vec<Light>, size: usize, spp: u32
         height: size,
         spp,
         integrator: Integrator::Path,
-        bounds: Some(crate::sample::Aabb::new(
+        bounds: Some(crate::space::Aabb::new(
             DVec3::splat(-0.6),
             DVec3::splat(0.6),
         )),

@@ -2,7 +2,7 @@
 //! by `Scene`'s one rule, counted exactly, and reported in one warning per field.
 
 use super::*;
-use crate::failure::{grouped, vector_text};
+use crate::base::failure::{grouped, vector_text};
 use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
 
 /// Counts of a test field's evaluations: all of them, the NaN or infinite ones, the negative ones.

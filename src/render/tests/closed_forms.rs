@@ -1,7 +1,7 @@
 //! Renders whose answer is known in closed form.
 
 use super::*;
-use crate::sample::FnField;
+use crate::space::FnField;
 
 #[test]
 fn slab_alpha_is_beer_lambert_and_exact_at_any_step() {

@@ -9,7 +9,7 @@ mod properties;
 mod surface;
 
 use super::*;
-use crate::sample::{Aabb, FnField};
+use crate::space::{Aabb, FnField};
 use glam::DVec3;
 
 /// Constant `value` (replicated to `width` components) inside the box `[-1,1]² × [z0, z1]`.

@@ -3,7 +3,7 @@
 
 use super::*;
 use crate::render::testing::{Ball, Pieces};
-use crate::sample::FnField;
+use crate::space::FnField;
 use std::sync::atomic::Ordering;
 
 #[test]

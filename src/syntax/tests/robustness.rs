@@ -2,7 +2,7 @@
 use super::*;
 use crate::syntax::parse::{MAX_NESTING, is_incomplete};
 
-use crate::test_random::SplitMix as Rng;
+use crate::base::test_random::SplitMix as Rng;
 
 /// Runs `f` on a thread with a deliberately small stack, so that any recursion whose depth
 /// follows the input shows up as a crash here rather than on a user's machine.

@@ -1,7 +1,7 @@
 use crate::grid::cache::test_support::*;
 use crate::grid::cache::{BRICK, Cache};
-use crate::grid::domain::Domain;
-use crate::sample::{Aabb, FnField, GridSource, Interp};
+use crate::space::domain::Domain;
+use crate::space::{Aabb, FnField, GridSource, Interp};
 use glam::DVec3;
 use std::sync::Arc;
 
