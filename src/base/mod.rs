@@ -5,3 +5,4 @@ pub mod failure;
 pub mod suggest;
 #[cfg(test)]
 pub(crate) mod test_random;
+pub mod text;

@@ -16,6 +16,7 @@ mod threads;
 pub use threads::{WORKER_STACK_BYTES, threads_that_fit};
 
 use crate::base::failure::{Failure, Outcome};
+use crate::base::text::human_bytes;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -131,15 +132,15 @@ impl Budget {
         let held = if used > 0.0 {
             format!(
                 " ({} of it already held by this run's caches, buffers and arrays)",
-                human(used)
+                human_bytes(used)
             )
         } else {
             String::new()
         };
         Failure::new(format!(
             "{what} would take {}, over the memory budget of {}{held}",
-            human(bytes),
-            human(limit)
+            human_bytes(bytes),
+            human_bytes(limit)
         ))
         .with_help(
             "use a coarser cell, a smaller domain or image, free earlier caches, or raise the \
@@ -257,18 +258,6 @@ impl Drop for Reservation {
     fn drop(&mut self) {
         self.budget.used.fetch_sub(self.bytes, Ordering::Relaxed);
     }
-}
-
-/// "1.5 GiB".
-pub fn human(bytes: f64) -> String {
-    const UNITS: [&str; 5] = ["B", "KiB", "MiB", "GiB", "TiB"];
-    let mut value = bytes;
-    let mut unit = 0;
-    while value >= 1024.0 && unit + 1 < UNITS.len() {
-        value /= 1024.0;
-        unit += 1;
-    }
-    format!("{value:.1} {}", UNITS[unit])
 }
 
 /// Takes `bytes` of the current engine's budget for storage that lives on (a cache, a

@@ -10,6 +10,7 @@
 //! it keeps nothing alive. Each engine (`crate::engine`) has its own rows, so a session's
 //! profile lists only its own grids; the free functions here use the current engine.
 
+use crate::base::text::human_bytes;
 use std::fmt::Write;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
@@ -205,8 +206,8 @@ pub fn format_table(entries: &[ProfileEntry]) -> String {
                 e.bricks_filled.to_string(),
                 e.bricks_skipped.to_string(),
                 format!("{:.3}", e.seconds),
-                human_bytes(e.bytes_allocated),
-                human_bytes(e.bytes_live),
+                human_bytes(e.bytes_allocated as f64),
+                human_bytes(e.bytes_live as f64),
             ]
         })
         .collect();
@@ -239,21 +240,6 @@ pub fn format_table(entries: &[ProfileEntry]) -> String {
         line(&cells);
     }
     text
-}
-
-fn human_bytes(bytes: u64) -> String {
-    const UNITS: [&str; 5] = ["B", "KiB", "MiB", "GiB", "TiB"];
-    let mut value = bytes as f64;
-    let mut unit = 0;
-    while value >= 1024.0 && unit + 1 < UNITS.len() {
-        value /= 1024.0;
-        unit += 1;
-    }
-    if unit == 0 {
-        format!("{bytes} B")
-    } else {
-        format!("{value:.1} {}", UNITS[unit])
-    }
 }
 
 #[cfg(test)]

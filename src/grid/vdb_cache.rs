@@ -10,7 +10,7 @@
 
 use crate::base::failure::grouped;
 use crate::base::failure::{Failure, Outcome};
-use crate::engine::budget::human as human_bytes;
+use crate::base::text::human_bytes;
 use crate::grid::cache::{Cache, SparseBuilder};
 use crate::grid::vdb::{self, Activity, Compression, VdbGrid, VdbMeta, VdbValues};
 use crate::space::domain::{Domain, memory_limit};

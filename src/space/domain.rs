@@ -144,8 +144,8 @@ impl Domain {
                 resolution[0],
                 resolution[1],
                 resolution[2],
-                crate::engine::budget::human(bytes),
-                crate::engine::budget::human(memory_limit() as f64)
+                crate::base::text::human_bytes(bytes),
+                crate::base::text::human_bytes(memory_limit() as f64)
             ))
             .with_help("use a larger cell size or a smaller domain, or raise the limit with --memory-limit"));
         }
@@ -224,8 +224,8 @@ impl Domain {
                 "a grid of {} cells with {} components needs {}, over the memory budget of {}",
                 self.cell_count(),
                 width,
-                crate::engine::budget::human(bytes),
-                crate::engine::budget::human(memory_limit() as f64)
+                crate::base::text::human_bytes(bytes),
+                crate::base::text::human_bytes(memory_limit() as f64)
             ))
             .with_help("use a larger cell size or a smaller domain, or raise the limit with --memory-limit"));
         }
