@@ -245,7 +245,9 @@ fn kernel_rule<const A: usize>(
     outs.into_iter()
         .map(|o| {
             <[NodeRef; A]>::try_from(o).map_err(|_| {
-                Failure::new(format!("{kernel:?} gave a derivative along too few axes"))
+                Failure::new(format!(
+                    "{kernel:?} gave derivatives along the wrong number of axes"
+                ))
             })
         })
         .collect()
