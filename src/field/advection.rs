@@ -21,7 +21,7 @@
 //! extrapolates outside its box (a map) is clamped only where the back trace lands inside it,
 //! so an affine map stays affine beyond the border.
 
-use super::node::{self, Kernel, NodeRef, Op};
+use super::node::{self, NodeRef, Op};
 use super::{Field, FieldKind};
 use crate::base::failure::{Failure, Outcome};
 use crate::space::{GridSource, Lattice};
@@ -153,9 +153,10 @@ fn grid_read(f: &Field) -> Option<Arc<dyn GridSource>> {
     let Op::Output(kernel, _) = &first.op else {
         return None;
     };
-    let Op::Kernel(Kernel::GridValue { grid, .. }, args) = &kernel.op else {
+    let Op::Kernel(read, args) = &kernel.op else {
         return None;
     };
+    let grid = read.grid_read().filter(|r| r.is_value())?.grid();
     let reads_position = args
         .iter()
         .enumerate()

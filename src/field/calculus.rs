@@ -13,15 +13,13 @@
 //!
 //! Two decisions: where a derivative has a removable 0/0 (the gradient of `sqrt(u)` where `u`
 //! and its derivative vanish together, as for `|x|` at the origin), the rule uses the guarded
-//! division, which gives 0 there instead of NaN. And grid reads are differentiated through the
-//! interpolant's exact gradient; the second derivative of a grid read, which the interpolants
-//! only have piecewise, is a central difference of that gradient at one cell size. Noise has
-//! exact first and second derivatives; third and higher ones (needed by nested level-set
-//! projections such as procedural `cumulo`) are central differences of the exact Hessian.
+//! division, which gives 0 there instead of NaN. And each kernel differentiates itself
+//! (`FieldKernel::derivative`): grid reads through the interpolant's exact gradient, noise
+//! exactly to second order, both by central differences beyond (`field::kernel`).
 
 use crate::base::failure::{Failure, Outcome};
+use crate::field::kernel::KernelAt;
 use crate::field::node::{self, BinOp, Kernel, MathFn, NodeRef, Op};
-use crate::space::GridDerivative;
 use glam::DVec3;
 use std::collections::HashMap;
 
@@ -228,146 +226,31 @@ fn binary_rule(
     }
 }
 
-/// Derivatives of every output of a kernel node along the pass's axes.
+/// Derivatives of every output of a kernel node along the pass's axes, by the kernel's own
+/// rule.
 fn kernel_rule<const A: usize>(
     kernel: &Kernel,
     n: &NodeRef,
     args: &[NodeRef],
     d: &IdMap<[NodeRef; A]>,
 ) -> Outcome<Vec<[NodeRef; A]>> {
-    let chain = |partial: &dyn Fn(usize) -> NodeRef| -> [NodeRef; A] {
-        // d out / d x_j = sum_k d out / d arg_k * d arg_k / d x_j
-        std::array::from_fn(|j| {
-            node::sum((0..args.len()).map(|k| node::mul(partial(k), d[&args[k].id][j].clone())))
+    let at = KernelAt {
+        kernel,
+        node: n,
+        args,
+        d_args: args.iter().map(|a| &d[&a.id][..]).collect(),
+        axes: A,
+    };
+    let outs = kernel.derivative(&at)?;
+    outs.into_iter()
+        .map(|o| {
+            <[NodeRef; A]>::try_from(o).map_err(|_| {
+                Failure::new(format!(
+                    "{kernel:?} gave derivatives along the wrong number of axes"
+                ))
+            })
         })
-    };
-    Ok(match kernel {
-        Kernel::Noise { .. } => {
-            // Hessian output index for the pair (a, b).
-            let hess = |a: usize, b: usize| -> usize {
-                match (a.min(b), a.max(b)) {
-                    (0, 0) => 4,
-                    (1, 1) => 5,
-                    (2, 2) => 6,
-                    (0, 1) => 7,
-                    (0, 2) => 8,
-                    _ => 9,
-                }
-            };
-            let mut outs = Vec::with_capacity(10);
-            outs.push(chain(&|k| node::output_of(n, 1 + k)));
-            for a in 0..3 {
-                outs.push(chain(&|k| node::output_of(n, hess(a, k))));
-            }
-            // Third and higher derivatives: central differences of the exact Hessian, a
-            // thousandth of a lattice cell apart (relative error about 1e-6).
-            let central = Central::new(kernel, args, NOISE_STEP);
-            for o in 4..10 {
-                outs.push(chain(&|k| central.partial(o, k)));
-            }
-            outs
-        }
-        // A read that asks for central differences, and the second derivative of a read
-        // (the interpolants have it only piecewise): differences at one cell size.
-        Kernel::GridValue {
-            grid,
-            derivative: GridDerivative::Central,
-            ..
-        }
-        | Kernel::GridGradient { grid, .. } => {
-            let central = Central::new(kernel, args, grid.cell_size().min_element());
-            (0..kernel.outputs())
-                .map(|o| chain(&|k| central.partial(o, k)))
-                .collect()
-        }
-        Kernel::GridValue { grid, interp, .. } => {
-            let gradient = node::mk(Op::Kernel(
-                Kernel::GridGradient {
-                    grid: grid.clone(),
-                    interp: *interp,
-                },
-                args.to_vec(),
-            ));
-            (0..grid.width())
-                .map(|c| chain(&|k| node::output_of(&gradient, c * 3 + k)))
-                .collect()
-        }
-        Kernel::PseudoInverse => {
-            // d(M⁻¹) = -M⁻¹ dM M⁻¹, exact where M is invertible.
-            let inv: Vec<NodeRef> = (0..9).map(|i| node::output_of(n, i)).collect();
-            (0..9)
-                .map(|o| {
-                    let (r, c) = (o / 3, o % 3);
-                    std::array::from_fn(|j| {
-                        let mut terms = Vec::new();
-                        for a in 0..3 {
-                            for b in 0..3 {
-                                let dm = d[&args[a * 3 + b].id][j].clone();
-                                terms.push(node::mul(
-                                    node::mul(inv[r * 3 + a].clone(), dm),
-                                    inv[b * 3 + c].clone(),
-                                ));
-                            }
-                        }
-                        node::neg(node::sum(terms))
-                    })
-                })
-                .collect()
-        }
-    })
-}
-
-/// A kernel evaluated at ±h along each of its three position arguments.
-struct Central {
-    plus: Vec<NodeRef>,
-    minus: Vec<NodeRef>,
-    h: f64,
-}
-
-impl Central {
-    fn new(kernel: &Kernel, args: &[NodeRef], h: f64) -> Central {
-        Central {
-            plus: (0..3).map(|k| shifted_kernel(kernel, args, k, h)).collect(),
-            minus: (0..3)
-                .map(|k| shifted_kernel(kernel, args, k, -h))
-                .collect(),
-            h,
-        }
-    }
-
-    /// d(output) / d(argument `arg`) by the central difference.
-    fn partial(&self, output: usize, arg: usize) -> NodeRef {
-        node::mul(
-            node::constant(0.5 / self.h),
-            node::sub(
-                node::output_of(&self.plus[arg], output),
-                node::output_of(&self.minus[arg], output),
-            ),
-        )
-    }
-}
-
-/// Lattice units between the samples of a noise Hessian's central difference.
-const NOISE_STEP: f64 = 1e-3;
-
-/// The same kernel with argument `axis` moved by `offset`. An argument that is already some
-/// node plus a constant gets the constants summed, so differences of differences land on
-/// shared points (`x + h - h` is `x` again) and nested derivatives stay polynomial in size.
-fn shifted_kernel(kernel: &Kernel, args: &[NodeRef], axis: usize, offset: f64) -> NodeRef {
-    let mut moved = args.to_vec();
-    let arg = &args[axis];
-    moved[axis] = match &arg.op {
-        Op::Binary(BinOp::Add, a, b) if b.constant().is_some() && a.constant().is_none() => {
-            let total = b.constant().unwrap_or(0.0) + offset;
-            node::add(a.clone(), node::constant(total))
-        }
-        Op::Binary(BinOp::Add, a, b) if a.constant().is_some() && b.constant().is_none() => {
-            let total = a.constant().unwrap_or(0.0) + offset;
-            node::add(b.clone(), node::constant(total))
-        }
-        _ => node::add(arg.clone(), node::constant(offset)),
-    };
-    node::mk(Op::Kernel(kernel.clone(), moved))
+        .collect()
 }
 
 /// The position nodes shifted by a constant vector: `x - offset`.

@@ -13,10 +13,9 @@
 //! The tape loop is compiled twice, plainly and with AVX2 enabled, and the second is used when
 //! the processor has it (checked once).
 
-use crate::field::linalg::pseudo_inverse;
+use crate::field::kernel::{KernelBlock, KernelScratch};
 use crate::field::node::{BinOp, MathFn, sin_cos};
-use crate::field::noise::{self, NoiseOutput};
-use crate::field::program::{Instr, Program, Reg, UNUSED};
+use crate::field::program::{Instr, Program, Reg};
 use crate::space::BLOCK;
 use std::sync::Arc;
 
@@ -52,7 +51,7 @@ static NO_PROGRAM: Program = Program {
     constants: Vec::new(),
     outputs: Vec::new(),
     emits: Vec::new(),
-    grid_scratch: 0,
+    scratch_rows: 0,
     nodes: 0,
 };
 
@@ -60,25 +59,17 @@ pub struct Evaluator<'p> {
     /// The compiled field's own program, or one specialised to a region (`field::prune`).
     program: ProgramRef<'p>,
     regs: Vec<f64>,
-    /// Grid kernels write all components here first, component-major.
-    grid_out: Vec<f64>,
-    /// f32 noise inputs (offsets from the block base) and outputs.
-    noise_in: [Vec<f32>; 3],
-    noise_out: Vec<f32>,
-    noise_out64: Vec<f64>,
+    /// The kernels' working space.
+    scratch: KernelScratch,
 }
 
 /// Bytes one evaluator of `program` holds: its registers, the grid kernels' scratch and the
 /// noise buffers, as `Evaluator::new` allocates them. Every worker thread has its own, so a
 /// compiled field charges the budget this figure per thread (`CompiledField::prepared`).
 pub fn evaluator_bytes(program: &Program) -> usize {
-    let f64s = (program.registers + program.grid_scratch.max(1) + NOISE_OUTPUTS) * BLOCK;
-    let f32s = (3 + NOISE_OUTPUTS) * BLOCK;
-    f64s * std::mem::size_of::<f64>() + f32s * std::mem::size_of::<f32>()
+    program.registers * BLOCK * std::mem::size_of::<f64>()
+        + KernelScratch::bytes(program.scratch_rows)
 }
-
-/// Outputs a noise kernel writes per point (value and derivatives), the noise buffers' rows.
-const NOISE_OUTPUTS: usize = 10;
 
 impl<'p> Evaluator<'p> {
     pub fn new(program: &'p Program) -> Evaluator<'p> {
@@ -89,10 +80,7 @@ impl<'p> Evaluator<'p> {
         Evaluator {
             program: ProgramRef::Borrowed(program),
             regs,
-            grid_out: vec![0.0; program.grid_scratch.max(1) * BLOCK],
-            noise_in: [vec![0.0; BLOCK], vec![0.0; BLOCK], vec![0.0; BLOCK]],
-            noise_out: vec![0.0; NOISE_OUTPUTS * BLOCK],
-            noise_out64: vec![0.0; NOISE_OUTPUTS * BLOCK],
+            scratch: KernelScratch::new(program.scratch_rows),
         }
     }
 
@@ -104,10 +92,7 @@ impl<'p> Evaluator<'p> {
         for &(r, c) in &program.constants {
             self.regs[r as usize * BLOCK..(r as usize + 1) * BLOCK].fill(c);
         }
-        let grid = program.grid_scratch.max(1) * BLOCK;
-        if self.grid_out.len() < grid {
-            self.grid_out.resize(grid, 0.0);
-        }
+        self.scratch.reserve(program.scratch_rows);
         self.program = handle;
     }
 
@@ -219,135 +204,20 @@ impl<'p> Evaluator<'p> {
                         d[i] = if c[i] >= 0.0 { a[i] } else { b[i] };
                     }
                 }
-                Instr::Noise {
-                    kind,
-                    seed,
-                    at,
-                    outs,
-                } => self.noise(*kind, *seed, *at, outs, n, precision),
-                Instr::Grid {
-                    grid,
-                    interp,
-                    gradient,
-                    at,
-                    outs,
-                } => {
-                    let [x, y, z] = at.map(|r| r as usize * BLOCK);
-                    let width = outs.len();
-                    let (regs, out) = (&self.regs, &mut self.grid_out[..width * n]);
-                    let (xs, ys, zs) = (&regs[x..x + n], &regs[y..y + n], &regs[z..z + n]);
-                    if *gradient {
-                        grid.sample_gradient(*interp, xs, ys, zs, out);
-                    } else {
-                        grid.sample(*interp, xs, ys, zs, out);
-                    }
-                    for (c, &r) in outs.iter().enumerate() {
-                        if r != UNUSED {
-                            let r = r as usize * BLOCK;
-                            self.regs[r..r + n].copy_from_slice(&self.grid_out[c * n..(c + 1) * n]);
-                        }
-                    }
-                }
-                Instr::PseudoInverse { m, outs } => {
-                    for i in 0..n {
-                        let entries: [f64; 9] =
-                            std::array::from_fn(|k| self.regs[m[k] as usize * BLOCK + i]);
-                        let inv = pseudo_inverse(entries);
-                        for (k, &r) in outs.iter().enumerate() {
-                            if r != UNUSED {
-                                self.regs[r as usize * BLOCK + i] = inv[k];
-                            }
-                        }
-                    }
+                Instr::Kernel { kernel, args, outs } => {
+                    let mut block = KernelBlock {
+                        regs: &mut self.regs,
+                        scratch: &mut self.scratch,
+                        n,
+                        precision,
+                    };
+                    kernel.run(&mut block, args, outs);
                 }
             }
             self.emit_after(program, step, &mut next, n, emit);
         }
         self.emit_after(program, program.instrs.len(), &mut next, n, emit);
         self.program = handle;
-    }
-
-    // Inlined into the tape loop so that, in its AVX2 build, staging the points and widening
-    // the results use AVX2 too; called on its own, it was compiled for the baseline only.
-    #[inline(always)]
-    fn noise(
-        &mut self,
-        kind: noise::NoiseKind,
-        seed: u32,
-        at: [Reg; 3],
-        outs: &[Reg; 10],
-        n: usize,
-        precision: Precision,
-    ) {
-        let wants_gradient = outs[1..4].iter().any(|&r| r != UNUSED);
-        let wants_hessian = outs[4..].iter().any(|&r| r != UNUSED);
-        let [x, y, z] = at.map(|r| r as usize * BLOCK);
-        match precision {
-            Precision::Double => {
-                let regs = &self.regs;
-                let (xs, ys, zs) = (&regs[x..x + n], &regs[y..y + n], &regs[z..z + n]);
-                let out = split_output(
-                    &mut self.noise_out64[..10 * n],
-                    n,
-                    wants_gradient,
-                    wants_hessian,
-                );
-                noise::eval_f64(kind, seed, xs, ys, zs, out);
-                for (k, &r) in outs.iter().enumerate() {
-                    if r != UNUSED {
-                        let r = r as usize * BLOCK;
-                        self.regs[r..r + n].copy_from_slice(&self.noise_out64[k * n..(k + 1) * n]);
-                    }
-                }
-            }
-            Precision::Single => {
-                if n == 0 {
-                    return;
-                }
-                let base = [self.regs[x], self.regs[y], self.regs[z]];
-                for (axis, start) in [x, y, z].into_iter().enumerate() {
-                    let offsets = &mut self.noise_in[axis];
-                    for i in 0..n {
-                        offsets[i] = (self.regs[start + i] - base[axis]) as f32;
-                    }
-                }
-                let out = split_output(
-                    &mut self.noise_out[..10 * n],
-                    n,
-                    wants_gradient,
-                    wants_hessian,
-                );
-                let [ix, iy, iz] = &self.noise_in;
-                noise::eval_f32(kind, seed, base, &ix[..n], &iy[..n], &iz[..n], out);
-                for (k, &r) in outs.iter().enumerate() {
-                    if r != UNUSED {
-                        let r = r as usize * BLOCK;
-                        let row = &self.noise_out[k * n..(k + 1) * n];
-                        for (d, s) in self.regs[r..r + n].iter_mut().zip(row) {
-                            *d = *s as f64;
-                        }
-                    }
-                }
-            }
-        }
-    }
-}
-
-/// Ten rows of `n` values (value, gradient, Hessian) as a noise output.
-fn split_output<T>(rows: &mut [T], n: usize, gradient: bool, hessian: bool) -> NoiseOutput<'_, T> {
-    let (value, rest) = rows.split_at_mut(n);
-    let (g, h) = rest.split_at_mut(3 * n);
-    let (g0, g) = g.split_at_mut(n);
-    let (g1, g2) = g.split_at_mut(n);
-    let (h0, h) = h.split_at_mut(n);
-    let (h1, h) = h.split_at_mut(n);
-    let (h2, h) = h.split_at_mut(n);
-    let (h3, h) = h.split_at_mut(n);
-    let (h4, h5) = h.split_at_mut(n);
-    NoiseOutput {
-        value,
-        gradient: gradient.then_some([g0, g1, g2]),
-        hessian: hessian.then_some([h0, h1, h2, h3, h4, h5]),
     }
 }
 
@@ -462,8 +332,10 @@ fn binary_constant(
     with_op!(op, with_constant)
 }
 
+/// Whether the processor has AVX2 (checked once): the tape loop and the kernels' staging are
+/// compiled for it too.
 #[cfg(target_arch = "x86_64")]
-fn avx2_available() -> bool {
+pub(crate) fn avx2_available() -> bool {
     use std::sync::OnceLock;
     static AVAILABLE: OnceLock<bool> = OnceLock::new();
     *AVAILABLE.get_or_init(|| std::is_x86_feature_detected!("avx2"))
@@ -490,14 +362,15 @@ mod budget_tests {
         let evaluator = Evaluator::new(&program);
         let held = |capacity: usize, element: usize| capacity * element;
         let allocated = held(evaluator.regs.capacity(), 8)
-            + held(evaluator.grid_out.capacity(), 8)
+            + held(evaluator.scratch.grid_out.capacity(), 8)
             + evaluator
+                .scratch
                 .noise_in
                 .iter()
                 .map(|v| held(v.capacity(), 4))
                 .sum::<usize>()
-            + held(evaluator.noise_out.capacity(), 4)
-            + held(evaluator.noise_out64.capacity(), 8);
+            + held(evaluator.scratch.noise_out.capacity(), 4)
+            + held(evaluator.scratch.noise_out64.capacity(), 8);
         assert_eq!(evaluator_bytes(&program), allocated);
     }
 }

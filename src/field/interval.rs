@@ -9,8 +9,7 @@
 //! few thousand boxes per level, and stops refining when that budget would be exceeded, so it
 //! always ends quickly with a bound that is conservative, if not always tight.
 
-use crate::field::node::{BinOp, Kernel, MathFn, NodeRef};
-use crate::field::noise;
+use crate::field::node::{BinOp, MathFn, NodeRef};
 use crate::field::ssa::{Index, Inst, Ssa};
 use crate::space::Aabb;
 use glam::DVec3;
@@ -22,7 +21,7 @@ pub struct Interval {
     pub hi: f64,
 }
 
-const ALL: Interval = Interval {
+pub(crate) const ALL: Interval = Interval {
     lo: f64::NEG_INFINITY,
     hi: f64::INFINITY,
 };
@@ -36,11 +35,11 @@ impl Interval {
         }
     }
 
-    fn point(v: f64) -> Interval {
+    pub(crate) fn point(v: f64) -> Interval {
         Interval::new(v, v)
     }
 
-    fn union(self, o: Interval) -> Interval {
+    pub(crate) fn union(self, o: Interval) -> Interval {
         Interval::new(self.lo.min(o.lo), self.hi.max(o.hi))
     }
 
@@ -328,7 +327,7 @@ impl IntervalTape {
                     }
                     let (first, count) = self.outputs_of[i];
                     let out = &mut kernel_iv[first as usize..(first + count) as usize];
-                    kernel_ranges(k, &arg_iv[..args.len().min(MOST_KERNEL_ARGS)], held, out);
+                    k.ranges(&arg_iv[..args.len().min(MOST_KERNEL_ARGS)], held, out);
                     ALL
                 }
                 Inst::Output([k], index) => {
@@ -349,47 +348,6 @@ impl IntervalTape {
 
 /// Most arguments a kernel takes (the pseudo-inverse's nine matrix entries).
 const MOST_KERNEL_ARGS: usize = 9;
-
-/// The intervals of a kernel's outputs, into `out` (one per output, `ALL` where unknown); grid
-/// reads as held reads when `held`.
-fn kernel_ranges(kernel: &Kernel, args: &[Interval], held: bool, out: &mut [Interval]) {
-    match kernel {
-        Kernel::Noise { kind, .. } => {
-            let (lo, hi) = noise::value_range(*kind);
-            let slope = noise::lipschitz(*kind);
-            // Value, then the gradient's three components; the Hessian's six stay `ALL`.
-            out[0] = Interval::new(lo, hi);
-            out[1..4].fill(Interval::new(-slope, slope));
-            out[4..].fill(ALL);
-        }
-        Kernel::GridValue { grid, interp, .. } => {
-            let region = Aabb::new(
-                DVec3::new(args[0].lo, args[1].lo, args[2].lo),
-                DVec3::new(args[0].hi, args[1].hi, args[2].hi),
-            );
-            let inside = region.intersection(&grid.bounds());
-            let background = grid.background();
-            let outside_possible =
-                !(grid.bounds().contains(region.min) && grid.bounds().contains(region.max));
-            let within = if inside.is_empty() {
-                vec![]
-            } else if held {
-                grid.range_held(&inside, *interp)
-            } else {
-                grid.range_read(&inside, *interp)
-            };
-            for (c, o) in out.iter_mut().enumerate() {
-                let mut r: Option<Interval> = within.get(c).map(|&(lo, hi)| Interval::new(lo, hi));
-                if outside_possible || r.is_none() {
-                    let b = Interval::point(background.get(c).copied().unwrap_or(0.0));
-                    r = Some(r.map_or(b, |r| r.union(b)));
-                }
-                *o = r.unwrap_or(ALL);
-            }
-        }
-        _ => out.fill(ALL),
-    }
-}
 
 /// A box outside which every root is exactly zero, or `None` if no finite box was found.
 pub fn support(roots: &[NodeRef]) -> Option<Aabb> {
@@ -505,12 +463,16 @@ fn structural_support(ssa: &Ssa) -> Option<Aabb> {
             Inst::Select([_, a, b]) => union(get(*a), get(*b)),
             Inst::Kernel(..) => None,
             Inst::Output([k], i) => match &insts[*k as usize] {
-                Inst::Kernel(Kernel::GridValue { grid, .. }, args)
-                    if (0..3).all(|a| is_position(args[a], a))
-                        && grid.background().get(*i as usize) == Some(&0.0) =>
-                {
-                    Some(grid.bounds())
-                }
+                Inst::Kernel(k, args) => match k.grid_read() {
+                    Some(read)
+                        if read.is_value()
+                            && (0..3).all(|a| is_position(args[a], a))
+                            && read.grid().background().get(*i as usize) == Some(&0.0) =>
+                    {
+                        Some(read.grid().bounds())
+                    }
+                    _ => None,
+                },
                 _ => None,
             },
         };

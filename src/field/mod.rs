@@ -22,6 +22,7 @@ mod calculus;
 mod derivative_tests;
 pub mod eval;
 pub mod interval;
+pub mod kernel;
 pub mod linalg;
 pub mod nacelle;
 pub mod node;
@@ -46,7 +47,7 @@ pub use sampler::{
 use crate::base::failure::{Failure, Outcome};
 use crate::space::{GridDerivative, GridSource, Interp};
 use glam::{DMat3, DVec3};
-use node::{BinOp, Kernel, NodeRef, Op};
+use node::{BinOp, NodeRef, Op};
 use std::fmt;
 use std::sync::Arc;
 
@@ -191,11 +192,11 @@ impl Field {
             ))
         })?;
         let kernel = node::mk(Op::Kernel(
-            Kernel::GridValue {
+            Arc::new(kernel::grid_read::GridRead::new(
                 grid,
                 interp,
-                derivative,
-            },
+                kernel::grid_read::Reading::Value(derivative),
+            )),
             (0..3).map(node::position).collect(),
         ));
         Ok(Field::new(
@@ -210,7 +211,7 @@ impl Field {
     /// result is the vectorfield of its exact gradient instead.
     pub fn noise(kind: noise::NoiseKind, seed: u32) -> Field {
         Field::scalar(node::kernel_output(
-            Kernel::Noise { kind, seed },
+            Arc::new(kernel::noise::Noise { kind, seed }),
             (0..3).map(node::position).collect(),
             0,
         ))
@@ -459,7 +460,10 @@ impl Field {
     /// The inverse where the matrix is regular, the pseudo-inverse where it is singular.
     pub fn inverse(&self) -> Outcome<Field> {
         let m = self.only_matrix("inverse")?;
-        let kernel = node::mk(Op::Kernel(Kernel::PseudoInverse, m.to_vec()));
+        let kernel = node::mk(Op::Kernel(
+            Arc::new(kernel::pseudo_inverse::PseudoInverse),
+            m.to_vec(),
+        ));
         Ok(Field::matrix(std::array::from_fn(|i| {
             node::output_of(&kernel, i)
         })))

@@ -15,12 +15,11 @@
 
 mod intern;
 
-use crate::field::noise::NoiseKind;
-use crate::space::{GridDerivative, GridSource, Interp};
 use intern::intern;
 use std::fmt;
 use std::sync::Arc;
 
+pub use crate::field::kernel::Kernel;
 pub use intern::{
     IdHasher, check_beside_graphs, check_graph_memory, check_projected_growth, node_bytes,
     nodes_made, table_len,
@@ -151,78 +150,6 @@ impl BinOp {
     }
 }
 
-/// Operations with several outputs, computed together per block.
-#[derive(Clone)]
-pub enum Kernel {
-    /// Children x, y, z (the lookup position). Outputs: 0 value, 1..=3 gradient,
-    /// 4..=9 Hessian in the order xx, yy, zz, xy, xz, yz.
-    Noise { kind: NoiseKind, seed: u32 },
-    /// Children x, y, z. Outputs: the grid's components. `derivative` says how `grad` of
-    /// this read is taken.
-    GridValue {
-        grid: Arc<dyn GridSource>,
-        interp: Interp,
-        derivative: GridDerivative,
-    },
-    /// Children x, y, z. Output `c * 3 + j`: d(component c)/dx_j of the interpolant.
-    GridGradient {
-        grid: Arc<dyn GridSource>,
-        interp: Interp,
-    },
-    /// Children: nine matrix entries, row-major. Outputs: the nine entries of the inverse, or of
-    /// the Moore–Penrose pseudo-inverse where the matrix is singular.
-    PseudoInverse,
-}
-
-impl Kernel {
-    pub fn outputs(&self) -> usize {
-        match self {
-            Kernel::Noise { .. } => 10,
-            Kernel::GridValue { grid, .. } => grid.width(),
-            Kernel::GridGradient { grid, .. } => grid.width() * 3,
-            Kernel::PseudoInverse => 9,
-        }
-    }
-
-    fn key(&self) -> (u8, u64) {
-        match self {
-            Kernel::Noise { kind, seed } => {
-                let k = match kind {
-                    NoiseKind::Perlin => 0u64,
-                    NoiseKind::Simplex => 1,
-                    NoiseKind::Worley => 2,
-                };
-                (0, k << 32 | *seed as u64)
-            }
-            Kernel::GridValue {
-                grid,
-                interp,
-                derivative,
-            } => (
-                1 + *interp as u8 * 2 + *derivative as u8 * 16,
-                grid.identity(),
-            ),
-            Kernel::GridGradient { grid, interp } => (2 + *interp as u8 * 2, grid.identity()),
-            Kernel::PseudoInverse => (9, 0),
-        }
-    }
-}
-
-impl fmt::Debug for Kernel {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Kernel::Noise { kind, seed } => write!(f, "noise {kind:?} seed {seed}"),
-            Kernel::GridValue { grid, interp, .. } => {
-                write!(f, "read {} {interp:?}", grid.label())
-            }
-            Kernel::GridGradient { grid, interp } => {
-                write!(f, "gradient of {} {interp:?}", grid.label())
-            }
-            Kernel::PseudoInverse => f.write_str("pseudo-inverse"),
-        }
-    }
-}
-
 /// What a node computes. Children are other nodes.
 #[derive(Clone, Debug)]
 pub enum Op {
@@ -235,7 +162,7 @@ pub enum Op {
     Binary(BinOp, NodeRef, NodeRef),
     /// `a` where `c >= 0`, else `b`.
     Select(NodeRef, NodeRef, NodeRef),
-    /// A multi-output operation; only reachable through `Output` nodes.
+    /// A multi-output operation (`field::kernel`); only reachable through `Output` nodes.
     Kernel(Kernel, Vec<NodeRef>),
     /// Output `index` of a kernel node.
     Output(NodeRef, u8),

@@ -9,10 +9,7 @@
 //! a few hundred kilobytes per thread, inside the cache, however many nodes it has.
 
 use crate::field::node::{BinOp, Kernel, MathFn, NodeRef};
-use crate::field::noise::NoiseKind;
 use crate::field::ssa::{Index, Inst, Ssa};
-use crate::space::{GridSource, Interp};
-use std::sync::Arc;
 
 /// A register index.
 pub type Reg = u32;
@@ -49,22 +46,12 @@ pub enum Instr {
         a: Reg,
         b: Reg,
     },
-    Noise {
-        kind: NoiseKind,
-        seed: u32,
-        at: [Reg; 3],
-        outs: [Reg; 10],
-    },
-    Grid {
-        grid: Arc<dyn GridSource>,
-        interp: Interp,
-        gradient: bool,
-        at: [Reg; 3],
+    /// A kernel (`field::kernel`) run on the whole block: one dispatch per block, its own
+    /// loops inside. `outs[o]` is `UNUSED` where no instruction reads output `o`.
+    Kernel {
+        kernel: Kernel,
+        args: Vec<Reg>,
         outs: Vec<Reg>,
-    },
-    PseudoInverse {
-        m: [Reg; 9],
-        outs: [Reg; 9],
     },
     /// The sine and cosine of one register, which one library call gives together.
     SinCos {
@@ -87,8 +74,8 @@ pub struct Program {
     /// no instruction writes (coordinates and constants). Lets results be stored while later
     /// instructions still compute, instead of in one copy after the whole tape.
     pub emits: Vec<(usize, usize)>,
-    /// The widest grid read (components × 3 for gradients), for scratch space.
-    pub grid_scratch: usize,
+    /// The most scratch rows a kernel needs (`FieldKernel::scratch_rows`).
+    pub scratch_rows: usize,
     /// Number of graph nodes compiled (for summaries).
     pub nodes: usize,
 }
@@ -153,7 +140,7 @@ impl Program {
             reg_of[i as usize].expect("operands are computed before their users")
         };
         let mut instrs = Vec::new();
-        let mut grid_scratch = 0;
+        let mut scratch_rows = 0;
         let mut released: Vec<Index> = Vec::new();
         let partner = sin_cos_pairs(insts);
         for (i, inst) in insts.iter().enumerate() {
@@ -225,7 +212,12 @@ impl Program {
                             reg_of[out as usize] = Some(r);
                         }
                     }
-                    Some(kernel_instr(kernel, &arg_regs, outs, &mut grid_scratch))
+                    scratch_rows = scratch_rows.max(kernel.scratch_rows());
+                    Some(Instr::Kernel {
+                        kernel: kernel.clone(),
+                        args: arg_regs,
+                        outs,
+                    })
                 }
             };
             instrs.extend(instr);
@@ -264,7 +256,7 @@ impl Program {
             constants,
             outputs,
             emits,
-            grid_scratch,
+            scratch_rows,
             nodes: count,
         }
     }
@@ -291,34 +283,6 @@ fn sin_cos_pairs(insts: &[Inst]) -> Vec<Option<Index>> {
     partner
 }
 
-/// The instruction of one kernel, reading `args` and writing `outs`.
-fn kernel_instr(kernel: &Kernel, args: &[Reg], outs: Vec<Reg>, grid_scratch: &mut usize) -> Instr {
-    let at = || [args[0], args[1], args[2]];
-    match kernel {
-        Kernel::Noise { kind, seed } => Instr::Noise {
-            kind: *kind,
-            seed: *seed,
-            at: at(),
-            outs: outs.try_into().unwrap_or([UNUSED; 10]),
-        },
-        Kernel::GridValue { grid, interp, .. } | Kernel::GridGradient { grid, interp } => {
-            let gradient = matches!(kernel, Kernel::GridGradient { .. });
-            *grid_scratch = (*grid_scratch).max(kernel.outputs());
-            Instr::Grid {
-                grid: grid.clone(),
-                interp: *interp,
-                gradient,
-                at: at(),
-                outs,
-            }
-        }
-        Kernel::PseudoInverse => Instr::PseudoInverse {
-            m: std::array::from_fn(|k| args[k]),
-            outs: outs.try_into().unwrap_or([UNUSED; 9]),
-        },
-    }
-}
-
 impl Instr {
     /// The registers this instruction writes.
     fn writes(&self) -> Vec<Reg> {
@@ -329,9 +293,7 @@ impl Instr {
             | Instr::Select { dst, .. } => {
                 vec![*dst]
             }
-            Instr::Noise { outs, .. } => outs.to_vec(),
-            Instr::Grid { outs, .. } => outs.clone(),
-            Instr::PseudoInverse { outs, .. } => outs.to_vec(),
+            Instr::Kernel { outs, .. } => outs.clone(),
             Instr::SinCos { sin, cos, .. } => vec![*sin, *cos],
         }
     }

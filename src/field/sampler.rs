@@ -9,7 +9,7 @@
 use crate::base::failure::{Failure, Outcome};
 use crate::field::eval::{Evaluator, Precision, ProgramRef};
 use crate::field::interval;
-use crate::field::node::{Kernel, NodeRef};
+use crate::field::node::NodeRef;
 use crate::field::program::Program;
 use crate::field::prune;
 use crate::field::ssa::{Index, Inst, Ssa};
@@ -219,14 +219,11 @@ impl FieldSampler for CompiledField {
     /// A field that is nothing but a read of one grid gives that grid's own cells.
     fn fill_cells(&self, domain: &Domain, lo: [usize; 3], hi: [usize; 3], out: &mut [f32]) -> bool {
         let ssa = self.intervals.ssa();
-        let [
-            Inst::X,
-            Inst::Y,
-            Inst::Z,
-            Inst::Kernel(Kernel::GridValue { grid, .. }, args),
-            ..,
-        ] = ssa.insts.as_slice()
+        let [Inst::X, Inst::Y, Inst::Z, Inst::Kernel(kernel, args), ..] = ssa.insts.as_slice()
         else {
+            return false;
+        };
+        let Some(read) = kernel.grid_read().filter(|r| r.is_value()) else {
             return false;
         };
         let plain_read = args.as_slice() == [0, 1, 2]
@@ -234,7 +231,7 @@ impl FieldSampler for CompiledField {
             && ssa.roots.iter().enumerate().all(
                 |(c, &r)| matches!(ssa.insts[r as usize], Inst::Output([3], i) if i as usize == c),
             );
-        plain_read && grid.cells(domain, lo, hi, out)
+        plain_read && read.grid().cells(domain, lo, hi, out)
     }
 
     fn range(&self, region: &Aabb) -> Vec<(f64, f64)> {
@@ -264,11 +261,11 @@ fn grids_of(ssa: &Ssa) -> Vec<Arc<dyn GridSource>> {
     let mut seen = std::collections::HashSet::new();
     let mut grids = Vec::new();
     for inst in &ssa.insts {
-        if let Inst::Kernel(Kernel::GridValue { grid, .. } | Kernel::GridGradient { grid, .. }, _) =
-            inst
-            && seen.insert(grid.identity())
+        if let Inst::Kernel(kernel, _) = inst
+            && let Some(read) = kernel.grid_read()
+            && seen.insert(read.grid().identity())
         {
-            grids.push(grid.clone());
+            grids.push(read.grid().clone());
         }
     }
     grids

@@ -60,11 +60,11 @@ fn key_of(op: &Op) -> Key {
         Op::Binary(b, x, y) => key(5, *b as u64, &[x.id, y.id]),
         Op::Select(c, a, b) => key(6, 0, &[c.id, a.id, b.id]),
         Op::Kernel(k, args) => {
-            let (t, p) = k.key();
             // Ids start at 1, so the zeros that pad a kernel of fewer than three arguments
-            // name no node.
+            // name no node. The kernel enters by its derived hash; `intern` confirms a match
+            // with its derived equality and moves on where two hashes collide.
             let ids: Vec<u64> = args.iter().map(|a| a.id).collect();
-            key(7, p ^ ((t as u64) << 56), &ids)
+            key(7, k.identity_hash(), &ids)
         }
         Op::Output(k, i) => key(8, *i as u64, &[k.id]),
     }
@@ -108,10 +108,22 @@ const NODE_BYTES: usize = std::mem::size_of::<Node>()
 
 /// The unique node for `op`, made if it does not exist yet. No simplification.
 pub(super) fn intern(op: Op) -> NodeRef {
-    let key = key_of(&op);
+    let mut key = key_of(&op);
     // A poisoned table only means another thread panicked while holding it; the map itself is
     // still consistent (entries are inserted whole), so keep using it.
     let mut table = TABLE.lock().unwrap_or_else(|e| e.into_inner());
+    // A kernel enters by a hash of its fields: where a different live kernel holds that key,
+    // it moves on to the next, so two kernels are one node exactly when they are equal.
+    if let Op::Kernel(kernel, _) = &op {
+        while let Some(found) = table.nodes.get(&key).and_then(|e| e.node.upgrade()) {
+            match &found.op {
+                Op::Kernel(other, _) if !other.same(kernel.as_ref()) => {
+                    key.payload = key.payload.wrapping_add(1)
+                }
+                _ => return found,
+            }
+        }
+    }
     let node = match table.nodes.entry(key) {
         Occupied(mut entry) => {
             if let Some(node) = entry.get().node.upgrade() {

@@ -218,7 +218,7 @@ fn noise_ranges_contain_both_precisions() {
         let roots: Vec<NodeRef> = (0..10)
             .map(|i| {
                 node::kernel_output(
-                    Kernel::Noise { kind, seed: 9 },
+                    Arc::new(Noise { kind, seed: 9 }),
                     (0..3).map(node::position).collect(),
                     i,
                 )

@@ -3,8 +3,10 @@
 //! ranges (`interval`) — and these tests check, op by op, that the three agree.
 //!
 //! The one key decision: the tables are written as exhaustive matches over the op enums
-//! (`every_math_fn`, `every_bin_op`, `every_kernel_kind`), so a new node kind that is not added
-//! here fails to compile instead of going untested. Inputs are seeded and deterministic; boxes
+//! (`every_math_fn`, `every_bin_op`), so a new node kind that is not added here fails to
+//! compile instead of going untested. Kernels are an open set (`field::kernel`); those with a
+//! range narrower than "anything" have it checked here (`noise_ranges_contain_both_precisions`,
+//! `grid_read_ranges_contain_every_value`). Inputs are seeded and deterministic; boxes
 //! are drawn to straddle poles, zeros of divisors, integers, crests of sin and cos, and to sit
 //! at huge magnitudes, and each box is sampled at its ends, at the special points inside it
 //! and at random points between. A NaN point value is not checked against its interval: the
@@ -18,7 +20,8 @@
 
 use crate::field::eval::{Evaluator, Precision};
 use crate::field::interval::{Interval, IntervalTape};
-use crate::field::node::{self, BinOp, Kernel, MathFn, NodeRef};
+use crate::field::kernel::noise::Noise;
+use crate::field::node::{self, BinOp, MathFn, NodeRef};
 use crate::field::noise::NoiseKind;
 use crate::field::program::Program;
 use crate::field::{CompiledField, Field};
@@ -99,17 +102,6 @@ fn every_bin_op() -> Vec<BinOp> {
     all.to_vec()
 }
 
-/// The kernels with a range rule narrower than "anything", and how they are covered here.
-/// Exhaustive over `Kernel`, so a new kernel must say where its range is tested.
-fn every_kernel_kind(k: &Kernel) -> &'static str {
-    match k {
-        Kernel::Noise { .. } => "noise_ranges_contain_both_precisions",
-        Kernel::GridValue { .. } => "grid_read_ranges_contain_every_value",
-        // Both default to "anything" (no rule to check).
-        Kernel::GridGradient { .. } | Kernel::PseudoInverse => "range is everything",
-    }
-}
-
 use crate::base::test_random::SplitMix as Rng;
 
 /// Values of `roots` at `points`, root-major: `[root][point]`.
@@ -168,21 +160,6 @@ const SPECIAL: [f64; 30] = [
     f64::NAN,
     4.5e15,
 ];
-
-#[test]
-fn kernels_have_a_range_rule_or_none() {
-    // The table names where each kernel's range is tested.
-    let kernels = [
-        Kernel::Noise {
-            kind: NoiseKind::Perlin,
-            seed: 0,
-        },
-        Kernel::PseudoInverse,
-    ];
-    for k in &kernels {
-        assert!(!every_kernel_kind(k).is_empty());
-    }
-}
 
 #[test]
 fn folding_a_math_fn_gives_the_tape_value() {
@@ -424,7 +401,7 @@ fn noise_in_single_precision_is_within_its_stated_bounds() {
         let roots: Vec<NodeRef> = (0..10)
             .map(|i| {
                 node::kernel_output(
-                    Kernel::Noise { kind, seed: 3 },
+                    Arc::new(Noise { kind, seed: 3 }),
                     (0..3).map(node::position).collect(),
                     i,
                 )
