@@ -139,11 +139,14 @@ impl Cache {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::field::Field;
     use crate::space::domain::Domain;
-    use crate::space::{GridSource, Interp};
+    use crate::space::{FnField, GridSource, Interp};
 
-    fn watched(field: &Field, tally: &Arc<AtomicU64>) -> Cache {
+    /// A cache of the vector field `value` (a function of the position), watched by `tally`.
+    fn watched(
+        value: impl Fn(DVec3) -> DVec3 + Send + Sync + 'static,
+        tally: &Arc<AtomicU64>,
+    ) -> Cache {
         let domain = Domain::with_cells(
             DVec3::splat(-1.0),
             DVec3::splat(2.0),
@@ -155,7 +158,9 @@ mod tests {
         Cache::from_field(
             domain,
             3,
-            crate::field::CompiledField::shared(field),
+            Arc::new(FnField::new(3, move |p: DVec3, out: &mut [f64]| {
+                out.copy_from_slice(&value(p).to_array())
+            })),
             vec![0.0; 3],
             String::new(),
         )
@@ -176,7 +181,7 @@ mod tests {
     #[test]
     fn a_map_read_outside_is_tallied_once() {
         let tally = Arc::new(AtomicU64::new(0));
-        let map = watched(&Field::identity(), &tally);
+        let map = watched(|p| p, &tally);
         read(&map, 7);
         map.settle_map_reads();
         assert_eq!(tally.load(Ordering::Relaxed), 7);
@@ -190,8 +195,7 @@ mod tests {
     #[test]
     fn a_velocity_read_outside_is_not_a_map() {
         let tally = Arc::new(AtomicU64::new(0));
-        let swirl = Field::constant_vector(DVec3::new(0.0, 0.3, 0.0));
-        let velocity = watched(&swirl, &tally);
+        let velocity = watched(|_| DVec3::new(0.0, 0.3, 0.0), &tally);
         read(&velocity, 5);
         drop(velocity);
         assert_eq!(tally.load(Ordering::Relaxed), 0);
