@@ -20,8 +20,8 @@ use crate::grid::vdb::FrustumMap;
 use crate::grid::vdb_cache::Placement;
 use glam::{DMat4, DVec3};
 
-/// How far a file's frustum may be from one felt can represent: index coordinates off whole
-/// cells, or axes off square, by this much (relative) are rounding.
+/// How far (relative) a file's index box may be off a voxel or a half voxel and still count as
+/// on it: rounding, not a different box.
 const TOLERANCE: f64 = 1e-9;
 /// Axes of a second map this far from perpendicular (the cosine of their angle) are sheared.
 const SHEAR: f64 = 1e-6;
