@@ -144,7 +144,7 @@ fn main() {
         leaves = grid.leaves.len();
     });
     let load = best_of(|| {
-        let (cache, _) = vdb_cache::load(&grid_path, "density", 1).expect("felt loads the grid");
+        let (cache, _, _) = vdb_cache::load(&grid_path, "density", 1).expect("felt loads the grid");
         assert_eq!(cache.width(), 1);
     });
     let (full, peer_leaves, version) = peer_read(&grid_path, false);

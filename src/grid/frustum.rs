@@ -20,6 +20,9 @@ mod read;
 pub use read::FrustumRead;
 #[cfg(test)]
 mod tests;
+mod vdb_map;
+#[cfg(test)]
+mod vdb_tests;
 
 use crate::base::failure::{Failure, Outcome};
 use crate::field::Field;

@@ -6,13 +6,16 @@
 //! every leaf and tile of the file, so everything downstream (interpolation, exact interpolant
 //! gradients, empty-brick skipping in the raymarcher) treats file data and sampled fields alike.
 //! Transforms with shear, reflection or different x and y voxel sizes are refused with a
-//! message, since a cache domain cannot represent them.
+//! message, since a cache domain cannot represent them. A frustum cache goes out with OpenVDB's
+//! frustum map and a grid with one comes back as a cache over a frustum's index domain
+//! (`grid::frustum`'s `vdb_map` says how cells and voxels correspond).
 
 use crate::base::failure::grouped;
 use crate::base::failure::{Failure, Outcome};
 use crate::base::text::human_bytes;
 use crate::grid::cache::{Cache, SparseBuilder};
-use crate::grid::vdb::{self, Activity, Compression, VdbGrid, VdbMeta, VdbValues};
+use crate::grid::frustum::Frustum;
+use crate::grid::vdb::{self, Activity, Compression, FrustumMap, VdbGrid, VdbMeta, VdbValues};
 use crate::space::domain::{Domain, memory_limit};
 use glam::{DMat3, DMat4, DQuat, DVec3};
 use std::path::Path;
@@ -78,8 +81,43 @@ pub struct GridOptions {
     pub creator: String,
 }
 
+/// Where a cache's cells go in a VDB grid's index space.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Placement {
+    /// The grid's index-to-world matrix (the second map of a frustum).
+    pub index_to_world: DMat4,
+    /// OpenVDB's frustum map, for a frustum cache (`Frustum::vdb_placement`).
+    pub frustum: Option<FrustumMap>,
+    /// The voxel that holds cell `(0, 0, 0)`.
+    pub first_voxel: [i32; 3],
+}
+
 /// A scalar or vector cache as a VDB grid (filling the cache first).
 pub fn grid_of(cache: &Cache, options: &GridOptions) -> Outcome<VdbGrid> {
+    let domain = cache.domain();
+    let rotation = domain.rotation;
+    let axes = rotation * DMat3::from_diagonal(domain.cell);
+    let corner = domain.origin + rotation * (domain.cell * 0.5);
+    let index_to_world = DMat4::from_cols(
+        axes.x_axis.extend(0.0),
+        axes.y_axis.extend(0.0),
+        axes.z_axis.extend(0.0),
+        corner.extend(1.0),
+    );
+    let placement = Placement {
+        index_to_world,
+        frustum: None,
+        first_voxel: [0; 3],
+    };
+    grid_placed(cache, options, &placement)
+}
+
+/// A cache as a VDB grid whose cells sit where `placement` puts them.
+pub fn grid_placed(
+    cache: &Cache,
+    options: &GridOptions,
+    placement: &Placement,
+) -> Outcome<VdbGrid> {
     let value_type = match cache.width() {
         1 => VdbValues::Float,
         3 => VdbValues::Vec3,
@@ -95,7 +133,6 @@ pub fn grid_of(cache: &Cache, options: &GridOptions) -> Outcome<VdbGrid> {
             "a level set is a scalar grid, not a vector one",
         ));
     }
-    let domain = cache.domain();
     let res = cache.resolution();
     if res.iter().any(|&n| n > i32::MAX as usize / 2) {
         return Err(Failure::new(
@@ -108,15 +145,6 @@ pub fn grid_of(cache: &Cache, options: &GridOptions) -> Outcome<VdbGrid> {
     } else {
         1.0
     };
-    let rotation = domain.rotation;
-    let axes = rotation * DMat3::from_diagonal(domain.cell);
-    let corner = domain.origin + rotation * (domain.cell * 0.5);
-    let index_to_world = DMat4::from_cols(
-        axes.x_axis.extend(0.0),
-        axes.y_axis.extend(0.0),
-        axes.z_axis.extend(0.0),
-        corner.extend(1.0),
-    );
     let mut background = [0f32; 3];
     for (b, v) in background.iter_mut().zip(cache.background_values()) {
         *b = sign * *v as f32;
@@ -136,17 +164,19 @@ pub fn grid_of(cache: &Cache, options: &GridOptions) -> Outcome<VdbGrid> {
     };
     cache.prepare()?;
     cache.fill_all();
-    let max = res.map(|n| n as i32 - 1);
+    let first = placement.first_voxel;
+    let max = [0, 1, 2].map(|a| first[a] + (res[a] as i32 - 1));
     let mut grid = VdbGrid::new(
         &options.name,
         options.class.name(),
         value_type,
         background,
-        index_to_world,
-    )
-    .with_values_from([0, 0, 0], max, activity, |ijk, out| {
-        let value = cache.value_at_cell(ijk[0] as usize, ijk[1] as usize, ijk[2] as usize);
-        if let Some(v) = value {
+        placement.index_to_world,
+    );
+    grid.frustum = placement.frustum;
+    let mut grid = grid.with_values_from(first, max, activity, |ijk, out| {
+        let [i, j, k] = [0, 1, 2].map(|a| (ijk[a] - first[a]) as usize);
+        if let Some(v) = cache.value_at_cell(i, j, k) {
             for (o, x) in out.iter_mut().zip(v) {
                 *o = sign * x;
             }
@@ -154,7 +184,7 @@ pub fn grid_of(cache: &Cache, options: &GridOptions) -> Outcome<VdbGrid> {
     })?;
     grid.metadata = vec![
         ("creator".into(), VdbMeta::String(options.creator.clone())),
-        (DOMAIN_MIN_KEY.into(), VdbMeta::Vec3i([0, 0, 0])),
+        (DOMAIN_MIN_KEY.into(), VdbMeta::Vec3i(first)),
         (DOMAIN_MAX_KEY.into(), VdbMeta::Vec3i(max)),
     ];
     if value_type == VdbValues::Vec3 {
@@ -217,12 +247,15 @@ pub struct LoadCheck {
     pub non_finite: u64,
     /// The background (the value outside every voxel) is NaN or infinite.
     pub bad_background: bool,
+    /// Voxels beyond a frustum grid's index box that are active or not the background: the
+    /// frustum's cells do not reach them, so they are not read.
+    pub beyond_frustum: u64,
 }
 
 impl LoadCheck {
     /// The warning for a grid read from `path`, if it needs one.
     pub fn warning(&self, path: &Path, name: &str) -> Option<String> {
-        if self.non_finite == 0 && !self.bad_background {
+        if self.non_finite == 0 && !self.bad_background && self.beyond_frustum == 0 {
             return None;
         }
         let mut text = format!("cacheload: grid '{name}' of {}", path.display());
@@ -239,6 +272,15 @@ impl LoadCheck {
             }
             text += " has a NaN or infinite background (its value everywhere outside its voxels)";
         }
+        if self.beyond_frustum > 0 {
+            if self.non_finite > 0 || self.bad_background {
+                text += ", and";
+            }
+            text += &format!(
+                " holds {} voxels beyond its frustum's index box, which are not read",
+                grouped(self.beyond_frustum)
+            );
+        }
         Some(text)
     }
 
@@ -250,9 +292,10 @@ impl LoadCheck {
     }
 }
 
-/// Reads grid `name` of a VDB file into a cache of `width` components (1 or 3), and what it
-/// found there worth a warning.
-pub fn load(path: &Path, name: &str, width: usize) -> Outcome<(Cache, LoadCheck)> {
+/// Reads grid `name` of a VDB file into a cache of `width` components (1 or 3), what it found
+/// there worth a warning, and for a grid with OpenVDB's frustum map the frustum whose index
+/// domain the cache covers.
+pub fn load(path: &Path, name: &str, width: usize) -> Outcome<(Cache, LoadCheck, Option<Frustum>)> {
     let grid = vdb::read_grid(path, name)?;
     if grid.value_type.components() != width {
         let found = match grid.value_type {
@@ -269,34 +312,18 @@ pub fn load(path: &Path, name: &str, width: usize) -> Outcome<(Cache, LoadCheck)
             "read scalar grids with cacheload"
         }));
     }
-    let (rotation, voxel) = decompose(&grid.index_to_world, name)?;
-    let (min, max) = cache_box(&grid);
-    // In i64: the box of voxels at -2^30 and 2^30 is 2^31 + 8 wide, past i32.
-    let extent: [i64; 3] = [0, 1, 2].map(|a| i64::from(max[a]) - i64::from(min[a]) + 1);
-    let bytes = extent.iter().map(|&n| n as f64).product::<f64>() * 4.0 * width as f64;
-    if bytes > memory_limit() as f64 {
-        return Err(Failure::new(format!(
-            "grid '{name}' of {} spans voxel indices {min:?} to {max:?}, a box of {} x {} x {} \
-             voxels; felt reads a grid into a cache over that whole box, which would need {}, \
-             over the memory budget of {}",
-            path.display(),
-            extent[0],
-            extent[1],
-            extent[2],
-            human_bytes(bytes),
-            human_bytes(memory_limit() as f64)
-        ))
-        .with_help(
-            "crop the grid to where its values are, or raise the limit with --memory-limit",
-        ));
-    }
-    let dims = DVec3::new(extent[0] as f64, extent[1] as f64, extent[2] as f64);
-    let first_centre =
-        grid.index_to_world_point(DVec3::new(min[0] as f64, min[1] as f64, min[2] as f64));
-    let origin = first_centre - rotation * (voxel * 0.5);
-    let (axis, angle) = DQuat::from_mat3(&rotation).to_axis_angle();
-    let domain = Domain::with_cells(origin, dims * voxel, axis * angle, voxel.x, voxel.z)?;
-    domain.check_grid_memory(width)?;
+    let (domain, min, max, frustum) = match &grid.frustum {
+        Some(map) => {
+            let (frustum, first) = Frustum::from_vdb(map, &grid.index_to_world, width, name)?;
+            let cells = frustum.cells();
+            let last = [0, 1, 2].map(|a| first[a] + (cells[a] as i32 - 1));
+            (frustum.index_domain()?, first, last, Some(frustum))
+        }
+        None => {
+            let (domain, min, max) = linear_domain(&grid, path, name, width)?;
+            (domain, min, max, None)
+        }
+    };
     // felt's level sets are positive inside, OpenVDB's negative.
     let sign = if grid.class == vdb::LEVEL_SET {
         -1.0f32
@@ -309,6 +336,11 @@ pub fn load(path: &Path, name: &str, width: usize) -> Outcome<(Cache, LoadCheck)
         .collect();
     let mut check = LoadCheck {
         bad_background: background.iter().any(|b| !b.is_finite()),
+        beyond_frustum: if frustum.is_some() {
+            beyond(&grid, min, max)
+        } else {
+            0
+        },
         ..LoadCheck::default()
     };
     let mut builder = SparseBuilder::new(domain, width, background)?;
@@ -380,7 +412,85 @@ pub fn load(path: &Path, name: &str, width: usize) -> Outcome<(Cache, LoadCheck)
         .build()
         .with_label(format!("cacheload {}#{name}", path.display()))
         .with_profile("cacheload");
-    Ok((cache, check))
+    Ok((cache, check, frustum))
+}
+
+/// Voxels of `grid` outside the inclusive box `[min, max]` that are active or not the
+/// background.
+fn beyond(grid: &VdbGrid, min: [i32; 3], max: [i32; 3]) -> u64 {
+    let width = grid.components();
+    let background = &grid.background[..width];
+    let inside =
+        |ijk: [i64; 3]| (0..3).all(|a| (i64::from(min[a])..=i64::from(max[a])).contains(&ijk[a]));
+    let mut count = 0;
+    for leaf in &grid.leaves {
+        let origin = leaf.origin.map(i64::from);
+        if inside(origin) && inside(origin.map(|o| o + vdb::LEAF_DIM as i64 - 1)) {
+            continue;
+        }
+        for offset in 0..vdb::LEAF_VOXELS {
+            let local = [offset >> 6, (offset >> 3) & 7, offset & 7];
+            let ijk = [0, 1, 2].map(|a| origin[a] + local[a] as i64);
+            let value = &leaf.values[offset * width..(offset + 1) * width];
+            if !inside(ijk) && (leaf.is_active(offset) || value != background) {
+                count += 1;
+            }
+        }
+    }
+    for tile in &grid.tiles {
+        if !tile.active && tile.value[..width] == *background {
+            continue;
+        }
+        let size = i64::from(tile.size);
+        let overlap: i64 = (0..3)
+            .map(|a| {
+                let lo = i64::from(tile.origin[a]).max(min[a].into());
+                let hi = (i64::from(tile.origin[a]) + size - 1).min(max[a].into());
+                (hi - lo + 1).max(0)
+            })
+            .product();
+        count += (size * size * size - overlap) as u64;
+    }
+    count
+}
+
+/// The domain of the cache a grid with a linear transform loads into, and the inclusive voxel
+/// box it covers.
+fn linear_domain(
+    grid: &VdbGrid,
+    path: &Path,
+    name: &str,
+    width: usize,
+) -> Outcome<(Domain, [i32; 3], [i32; 3])> {
+    let (rotation, voxel) = decompose(&grid.index_to_world, name)?;
+    let (min, max) = cache_box(grid);
+    // In i64: the box of voxels at -2^30 and 2^30 is 2^31 + 8 wide, past i32.
+    let extent: [i64; 3] = [0, 1, 2].map(|a| i64::from(max[a]) - i64::from(min[a]) + 1);
+    let bytes = extent.iter().map(|&n| n as f64).product::<f64>() * 4.0 * width as f64;
+    if bytes > memory_limit() as f64 {
+        return Err(Failure::new(format!(
+            "grid '{name}' of {} spans voxel indices {min:?} to {max:?}, a box of {} x {} x {} \
+             voxels; felt reads a grid into a cache over that whole box, which would need {}, \
+             over the memory budget of {}",
+            path.display(),
+            extent[0],
+            extent[1],
+            extent[2],
+            human_bytes(bytes),
+            human_bytes(memory_limit() as f64)
+        ))
+        .with_help(
+            "crop the grid to where its values are, or raise the limit with --memory-limit",
+        ));
+    }
+    let dims = DVec3::new(extent[0] as f64, extent[1] as f64, extent[2] as f64);
+    let first_centre =
+        grid.index_to_world_point(DVec3::new(min[0] as f64, min[1] as f64, min[2] as f64));
+    let origin = first_centre - rotation * (voxel * 0.5);
+    let (axis, angle) = DQuat::from_mat3(&rotation).to_axis_angle();
+    let domain = Domain::with_cells(origin, dims * voxel, axis * angle, voxel.x, voxel.z)?;
+    domain.check_grid_memory(width)?;
+    Ok((domain, min, max))
 }
 
 /// The index box a loaded grid's cache covers: for a grid felt saved, the saved cache's own
@@ -461,79 +571,6 @@ fn decompose(m: &DMat4, name: &str) -> Outcome<(DMat3, DVec3)> {
         return Err(refuse("its voxels differ in size along x and y"));
     }
     Ok((r, voxel))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::grid::vdb::VdbLeaf;
-
-    /// A file holding one scalar grid "density" with unit voxels and these leaves, each filled
-    /// with its value and all active.
-    fn file_with_leaves(dir: &Path, leaves: &[([i32; 3], f32)]) -> std::path::PathBuf {
-        let mut grid = VdbGrid::new(
-            "density",
-            vdb::FOG_VOLUME,
-            VdbValues::Float,
-            [0.0; 3],
-            DMat4::IDENTITY,
-        );
-        for &(origin, value) in leaves {
-            grid.leaves.push(VdbLeaf {
-                origin,
-                values: vec![value; vdb::LEAF_VOXELS],
-                active: [u64::MAX; 8],
-            });
-        }
-        grid.sort_nodes();
-        let path = dir.join("leaves.vdb");
-        vdb::write_file(&path, &[grid], Compression::Zip).unwrap();
-        path
-    }
-
-    #[test]
-    fn an_index_box_past_i32_is_too_large_not_negative() {
-        let dir = tempfile::tempdir().unwrap();
-        let far = 1 << 30;
-        let path = file_with_leaves(dir.path(), &[([-far, 0, 0], 1.0), ([far, 0, 0], 2.0)]);
-        let message = load(&path, "density", 1).unwrap_err().message;
-        assert!(
-            message.contains(
-                "spans voxel indices [-1073741824, 0, 0] to [1073741831, 7, 7], a box of \
-                 2147483656 x 8 x 8 voxels"
-            ) && message.contains("over the memory budget"),
-            "{message}"
-        );
-        assert!(!message.contains("must be positive"), "{message}");
-        // One leaf that far out is an ordinary small cache.
-        let path = file_with_leaves(dir.path(), &[([far, -far, 0], 3.0)]);
-        let (cache, check) = load(&path, "density", 1).unwrap();
-        assert_eq!(cache.resolution(), [8, 8, 8]);
-        assert_eq!(cache.value_at_cell(7, 7, 7), Some(&[3.0f32][..]));
-        assert_eq!(check.warning(&path, "density"), None);
-    }
-
-    #[test]
-    fn non_finite_voxels_are_counted_on_load() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = file_with_leaves(dir.path(), &[([0, 0, 0], f32::NAN), ([8, 0, 0], 1.0)]);
-        let (_, check) = load(&path, "density", 1).unwrap();
-        assert_eq!(
-            check,
-            LoadCheck {
-                voxels: 1024,
-                non_finite: 512,
-                bad_background: false
-            }
-        );
-        assert_eq!(
-            check.warning(&path, "density").unwrap(),
-            format!(
-                "cacheload: grid 'density' of {} is NaN or infinite at 512 of its 1,024 voxels",
-                path.display()
-            )
-        );
-    }
 }
 
 #[cfg(test)]

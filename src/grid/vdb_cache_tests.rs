@@ -1,7 +1,9 @@
 //! `cachesave` → `cacheload` over many random domains: every domain felt accepts comes back
-//! with the same cells, values, transform and bounds.
+//! with the same cells, values, transform and bounds; and grids far out or holding NaN load
+//! as they should.
 
 use super::*;
+use crate::grid::vdb::VdbLeaf;
 
 use crate::base::test_random::SplitMix as Random;
 
@@ -82,7 +84,7 @@ fn every_domain_comes_back_from_a_vdb_file() {
             &[],
         )
         .unwrap();
-        let (loaded, check) = load(&path, name, width).unwrap();
+        let (loaded, check, _) = load(&path, name, width).unwrap();
         assert_eq!(check.non_finite, 0);
         assert_eq!(loaded.resolution(), cache.resolution(), "case {case}");
         let res = cache.resolution();
@@ -153,7 +155,7 @@ fn a_level_set_is_stored_negative_inside_and_read_back_positive() {
         raw.value_at([3, 4, 5])[0],
         -cache.value_at_cell(3, 4, 5).unwrap()[0]
     );
-    let (loaded, _) = load(&path, "surface", 1).unwrap();
+    let (loaded, _, _) = load(&path, "surface", 1).unwrap();
     assert_eq!(loaded.value_at_cell(3, 4, 5), cache.value_at_cell(3, 4, 5));
     assert_eq!(loaded.background_values(), &[-0.5]);
     // A level set's outside must be negative in felt's convention.
@@ -215,7 +217,7 @@ fn grids_saved_to_one_file_stay_together() {
         grids[0].meta("creator"),
         Some(&VdbMeta::String("felt test".into()))
     );
-    let (loaded, _) = load(&path, "density", 1).unwrap();
+    let (loaded, _, _) = load(&path, "density", 1).unwrap();
     assert_eq!(
         loaded.value_at_cell(2, 3, 1),
         temperature.value_at_cell(2, 3, 1)
@@ -231,4 +233,72 @@ fn grids_saved_to_one_file_stay_together() {
     )
     .unwrap();
     assert_eq!(vdb::read_file(&path).unwrap().len(), 1);
+}
+
+/// A file holding one scalar grid "density" with unit voxels and these leaves, each filled
+/// with its value and all active.
+fn file_with_leaves(dir: &Path, leaves: &[([i32; 3], f32)]) -> std::path::PathBuf {
+    let mut grid = VdbGrid::new(
+        "density",
+        vdb::FOG_VOLUME,
+        VdbValues::Float,
+        [0.0; 3],
+        DMat4::IDENTITY,
+    );
+    for &(origin, value) in leaves {
+        grid.leaves.push(VdbLeaf {
+            origin,
+            values: vec![value; vdb::LEAF_VOXELS],
+            active: [u64::MAX; 8],
+        });
+    }
+    grid.sort_nodes();
+    let path = dir.join("leaves.vdb");
+    vdb::write_file(&path, &[grid], Compression::Zip).unwrap();
+    path
+}
+
+#[test]
+fn an_index_box_past_i32_is_too_large_not_negative() {
+    let dir = tempfile::tempdir().unwrap();
+    let far = 1 << 30;
+    let path = file_with_leaves(dir.path(), &[([-far, 0, 0], 1.0), ([far, 0, 0], 2.0)]);
+    let message = load(&path, "density", 1).unwrap_err().message;
+    assert!(
+        message.contains(
+            "spans voxel indices [-1073741824, 0, 0] to [1073741831, 7, 7], a box of \
+             2147483656 x 8 x 8 voxels"
+        ) && message.contains("over the memory budget"),
+        "{message}"
+    );
+    assert!(!message.contains("must be positive"), "{message}");
+    // One leaf that far out is an ordinary small cache.
+    let path = file_with_leaves(dir.path(), &[([far, -far, 0], 3.0)]);
+    let (cache, check, _) = load(&path, "density", 1).unwrap();
+    assert_eq!(cache.resolution(), [8, 8, 8]);
+    assert_eq!(cache.value_at_cell(7, 7, 7), Some(&[3.0f32][..]));
+    assert_eq!(check.warning(&path, "density"), None);
+}
+
+#[test]
+fn non_finite_voxels_are_counted_on_load() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = file_with_leaves(dir.path(), &[([0, 0, 0], f32::NAN), ([8, 0, 0], 1.0)]);
+    let (_, check, _) = load(&path, "density", 1).unwrap();
+    assert_eq!(
+        check,
+        LoadCheck {
+            voxels: 1024,
+            non_finite: 512,
+            bad_background: false,
+            beyond_frustum: 0,
+        }
+    );
+    assert_eq!(
+        check.warning(&path, "density").unwrap(),
+        format!(
+            "cacheload: grid 'density' of {} is NaN or infinite at 512 of its 1,024 voxels",
+            path.display()
+        )
+    );
 }

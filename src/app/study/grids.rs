@@ -43,6 +43,15 @@ pub fn compare_vdb(name: &str, run: &Path, reference: &Path) -> Result<Vec<Measu
             ));
         }
         let resampled = other.index_to_world != grid.index_to_world;
+        // Resampling goes through linear maps: frustum grids compare voxel for voxel only.
+        let frustum = other.frustum.is_some() || grid.frustum.is_some();
+        if frustum && (resampled || other.frustum != grid.frustum) {
+            return Err(format!(
+                "grid '{}' has a frustum transform unlike the reference's, which felt does not \
+                 resample",
+                grid.name
+            ));
+        }
         let (rmse, max) = if resampled {
             resampled_errors(other, grid).map_err(|e| format!("grid '{}': {e}", grid.name))?
         } else {

@@ -13,7 +13,7 @@ use std::sync::Arc;
 
 /// A camera's view built the way a camera builds it: forward to `lookat`, right and up
 /// perpendicular to it, `fov` degrees across.
-fn view(eye: DVec3, lookat: DVec3, fov: f64, aspect: f64, ortho: Option<f64>) -> View {
+pub(super) fn view(eye: DVec3, lookat: DVec3, fov: f64, aspect: f64, ortho: Option<f64>) -> View {
     let forward = (lookat - eye).normalize();
     let right = forward.cross(DVec3::Y).normalize();
     let up = right.cross(forward);
@@ -32,7 +32,7 @@ fn view(eye: DVec3, lookat: DVec3, fov: f64, aspect: f64, ortho: Option<f64>) ->
     }
 }
 
-fn random_frustum(random: &mut SplitMix) -> Frustum {
+pub(super) fn random_frustum(random: &mut SplitMix) -> Frustum {
     let eye = random.vector(-3.0, 3.0);
     let lookat = eye
         + DVec3::new(

@@ -4,7 +4,7 @@
 //! nodes, 8³ leaves) whose nodes hold either children or constant "tiles". felt reads every
 //! layout that OpenVDB 6–12 writes: zip and blosc compression, half floats, all seven
 //! mask-compression schemes (so the inactive voxels of a level set come back as ±background),
-//! linear transforms, instanced grids. The one key decision: in memory a grid is *flat* — a
+//! linear transforms and OpenVDB's frustum map, instanced grids. The one key decision: in memory a grid is *flat* — a
 //! sorted list of 8³ leaves and a sorted list of constant tiles with their edge length — not a
 //! tree. Lookups are binary searches, the consumers (caches, the raymarcher) walk leaves
 //! directly, and the tree exists only while a file is read or written. Reading is defensive:
@@ -15,6 +15,7 @@
 mod build;
 mod compress;
 mod cursor;
+mod frustum_map;
 mod half;
 mod read;
 mod read_tree;
@@ -25,6 +26,7 @@ mod write_tree;
 mod tests;
 
 pub use build::Activity;
+pub use frustum_map::{FRUSTUM_MAP, FrustumMap};
 pub use read::{read_bytes, read_file, read_file_metadata, read_grid, read_grid_bytes};
 pub use write::{write_bytes, write_bytes_with_metadata, write_file, write_file_with_metadata};
 
@@ -154,8 +156,12 @@ pub struct VdbGrid {
     pub value_type: VdbValues,
     /// Component 0 only for scalar grids.
     pub background: [f32; 3],
-    /// Maps index coordinates to world space; voxel centres sit at integer coordinates.
+    /// Maps index coordinates to world space; voxel centres sit at integer coordinates. For a
+    /// grid with a `frustum`, the affine map applied after the frustum's taper (OpenVDB's
+    /// second map).
     pub index_to_world: DMat4,
+    /// OpenVDB's `NonlinearFrustumMap`, when the transform is one.
+    pub frustum: Option<FrustumMap>,
     pub leaves: Vec<VdbLeaf>,
     pub tiles: Vec<VdbTile>,
     /// The file stored the values as 16-bit halves (the values here are already rounded);
@@ -187,6 +193,7 @@ impl VdbGrid {
             value_type,
             background,
             index_to_world,
+            frustum: None,
             leaves: Vec::new(),
             tiles: Vec::new(),
             saved_as_half: false,
@@ -295,7 +302,8 @@ impl VdbGrid {
         self.tiles.sort_by_key(|tile| (tile.size, tile.origin));
     }
 
-    /// The world-space length of one voxel step along each index axis.
+    /// The world-space length of one voxel step along each index axis (for a frustum grid, of
+    /// its second map).
     pub fn voxel_size(&self) -> DVec3 {
         let m = self.index_to_world;
         DVec3::new(
@@ -307,7 +315,10 @@ impl VdbGrid {
 
     /// The world position of index coordinates `ijk` (a voxel centre when integer).
     pub fn index_to_world_point(&self, ijk: DVec3) -> DVec3 {
-        self.index_to_world.transform_point3(ijk)
+        match &self.frustum {
+            Some(frustum) => frustum.apply(&self.index_to_world, ijk),
+            None => self.index_to_world.transform_point3(ijk),
+        }
     }
 
     /// The metadata value called `key`, if the grid has one.

@@ -9,7 +9,7 @@
 
 use super::cursor::Cursor;
 use super::read_tree::{self, Scalar, TreeFormat, ValueFormat};
-use super::{VdbGrid, VdbMeta, VdbValues};
+use super::{FRUSTUM_MAP, FrustumMap, VdbGrid, VdbMeta, VdbValues};
 use crate::base::failure::{Failure, Outcome};
 use glam::DMat4;
 use std::path::Path;
@@ -171,11 +171,23 @@ fn meta_value(type_name: String, bytes: &[u8]) -> VdbMeta {
     }
 }
 
-/// Reads a map and returns it as an index-to-world matrix.
-fn read_transform(cur: &mut Cursor) -> Outcome<DMat4> {
+/// Reads a map: its index-to-world matrix, and for a frustum map the frustum's numbers (the
+/// matrix is then its second map).
+fn read_transform(cur: &mut Cursor) -> Outcome<(DMat4, Option<FrustumMap>)> {
     let at = cur.pos();
     let map = cur.string("the transform's map type")?;
-    let matrix = match map.as_str() {
+    if map == FRUSTUM_MAP {
+        let frustum = FrustumMap::read(cur)?;
+        let second_at = cur.pos();
+        let second = cur.string("a frustum map's second map type")?;
+        return Ok((read_linear(cur, &second, second_at)?, Some(frustum)));
+    }
+    Ok((read_linear(cur, &map, at)?, None))
+}
+
+/// Reads the numbers of a linear map of type `map` (whose name began at `at`).
+fn read_linear(cur: &mut Cursor, map: &str, at: usize) -> Outcome<DMat4> {
+    let matrix = match map {
         "UniformScaleMap" | "ScaleMap" => {
             let scale = cur.vec3d("a scale map")?;
             // Then voxel size, 1/scale, 1/scale² and 1/(2·scale): caches of the scale.
@@ -200,7 +212,7 @@ fn read_transform(cur: &mut Cursor) -> Outcome<DMat4> {
         other => {
             return Err(Failure::new(format!(
                 "grid '{}' has an unsupported transform '{other}'; felt reads linear \
-                 transforms (scale, translation, affine)",
+                 transforms (scale, translation, affine) and frustum maps with a linear one",
                 cur.grid
             ))
             .with_help(
@@ -457,7 +469,7 @@ fn parse_grid(cur: &mut Cursor, descriptor: &Descriptor, header: &Header) -> Out
         header.compression
     };
     let mut metadata = read_metadata(cur)?;
-    let index_to_world = read_transform(cur)?;
+    let (index_to_world, frustum) = read_transform(cur)?;
 
     let mut name = descriptor.name.clone();
     let mut class = super::UNKNOWN_CLASS.to_string();
@@ -481,6 +493,7 @@ fn parse_grid(cur: &mut Cursor, descriptor: &Descriptor, header: &Header) -> Out
     let half = half && value.scalar != Scalar::Half;
     let mut grid = VdbGrid::new(&name, &class, value_type, [0.0; 3], index_to_world);
     grid.saved_as_half = half;
+    grid.frustum = frustum;
     grid.stored_type = stored_type.to_string();
     grid.metadata = metadata;
     if descriptor.parent.is_empty() {

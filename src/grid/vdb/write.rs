@@ -200,7 +200,8 @@ fn put_entries(out: &mut Vec<u8>, entries: &BTreeMap<String, VdbMeta>) {
     }
 }
 
-/// Writes the simplest OpenVDB map that equals the grid's index-to-world matrix.
+/// Writes the simplest OpenVDB map that equals the grid's index-to-world matrix, or the
+/// grid's frustum map with that matrix as its second map.
 fn write_transform(out: &mut Vec<u8>, grid: &VdbGrid) -> Outcome<()> {
     let m = grid.index_to_world;
     let linear = DMat3::from_mat4(m);
@@ -217,6 +218,13 @@ fn write_transform(out: &mut Vec<u8>, grid: &VdbGrid) -> Outcome<()> {
             "grid '{}' has a projective transform; VDB files hold affine ones",
             grid.name
         )));
+    }
+    if let Some(frustum) = &grid.frustum {
+        // OpenVDB writes a frustum's second map as the affine map it keeps, whatever it was.
+        put_string(out, super::FRUSTUM_MAP);
+        frustum.write(out);
+        put_affine(out, &m);
+        return Ok(());
     }
     let diagonal = DVec3::new(linear.x_axis.x, linear.y_axis.y, linear.z_axis.z);
     let off_diagonal = [
@@ -247,13 +255,17 @@ fn write_transform(out: &mut Vec<u8>, grid: &VdbGrid) -> Outcome<()> {
         put_vec3d(out, inverse * inverse);
         put_vec3d(out, inverse * 0.5);
     } else {
-        put_string(out, "AffineMap");
-        // Row-major for row vectors: glam's columns are OpenVDB's rows.
-        for cell in m.to_cols_array() {
-            out.extend_from_slice(&cell.to_le_bytes());
-        }
+        put_affine(out, &m);
     }
     Ok(())
+}
+
+fn put_affine(out: &mut Vec<u8>, m: &glam::DMat4) {
+    put_string(out, "AffineMap");
+    // Row-major for row vectors: glam's columns are OpenVDB's rows.
+    for cell in m.to_cols_array() {
+        out.extend_from_slice(&cell.to_le_bytes());
+    }
 }
 
 pub(super) fn put_u32(out: &mut Vec<u8>, value: u32) {

@@ -96,9 +96,13 @@ pub fn field_in_cells(var: &CacheVar, field: &Field) -> Outcome<Field> {
     }
 }
 
-/// The grid a read of the cache samples at world points.
-pub fn read_at_world(var: &CacheVar, grid: Arc<dyn GridSource>) -> Arc<dyn GridSource> {
-    match &var.frustum {
+/// The grid a read of a cache samples at world points: through `frustum` for a frustum's cache
+/// (a frustum cache's, or a loaded grid's with OpenVDB's frustum map).
+pub fn read_at_world(
+    frustum: Option<&Arc<Frustum>>,
+    grid: Arc<dyn GridSource>,
+) -> Arc<dyn GridSource> {
+    match frustum {
         None => grid,
         Some(frustum) => Arc::new(FrustumRead::new(frustum.clone(), grid)),
     }
@@ -108,8 +112,13 @@ pub fn read_at_world(var: &CacheVar, grid: Arc<dyn GridSource>) -> Arc<dyn GridS
 pub fn refuse(var: &CacheVar, what: &str, help: &str) -> Outcome<()> {
     match var.frustum {
         None => Ok(()),
-        Some(_) => Err(Failure::new(format!("{what} cannot take a frustum cache")).with_help(help)),
+        Some(_) => Err(refusal(what, help)),
     }
+}
+
+/// The message refusing `what` for a frustum cache.
+pub fn refusal(what: &str, help: &str) -> Failure {
+    Failure::new(format!("{what} cannot take a frustum cache")).with_help(help)
 }
 
 /// The particles at their index coordinates, for a splat into a frustum cache (the set itself

@@ -12,6 +12,7 @@ use crate::check::types::Shape;
 use crate::field::{CompiledField, Field};
 use crate::grid::cache::Cache;
 use crate::grid::cache::outside::{Outside, OutsideRead};
+use crate::grid::frustum::Frustum;
 use crate::grid::vdb::VdbMeta;
 use crate::grid::vdb_cache;
 use crate::interp::Interpreter;
@@ -162,8 +163,8 @@ pub fn register(r: &mut Registry) {
          (interp, derivative, outside)",
         |interp, a| {
             let read = ReadOptions::of(&a)?;
-            let cache = load_checked(interp, &a, 1)?;
-            read.field(Arc::new(cache), None)
+            let (cache, frustum) = load_checked(interp, &a, 1)?;
+            read.field(Arc::new(cache), frustum.as_ref(), "cacheload")
         },
     );
     r.add(
@@ -172,8 +173,8 @@ pub fn register(r: &mut Registry) {
         "reads a vector grid of an OpenVDB file as a field, read as cacheread reads a cache",
         |interp, a| {
             let read = ReadOptions::of(&a)?;
-            let cache = load_checked(interp, &a, 3)?;
-            read.field(Arc::new(cache), None)
+            let (cache, frustum) = load_checked(interp, &a, 3)?;
+            read.field(Arc::new(cache), frustum.as_ref(), "cacheload")
         },
     );
 }
@@ -205,12 +206,6 @@ fn warn_length_change(
 }
 
 fn cachesave(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
-    super::frustum::refuse(
-        cache_var(&a)?,
-        "cachesave",
-        "a VDB file of a frustum needs OpenVDB's frustum transform, which felt does not write: \
-         cache the field over a domain for saving",
-    )?;
     let cache = written(&a)?;
     let (file, name) = split_grid_name(a.string("path")?)?;
     let vector = cache.width() == 3;
@@ -241,7 +236,10 @@ fn cachesave(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
     crate::io::output::check_writable(&path)
         .map_err(|e| Failure::new(format!("cannot write VDB file '{}': {e}", path.display())))?;
     let append = matches!(a.opt("append"), Some(Value::Bool(true)));
-    let grid = vdb_cache::grid_of(&cache, &options)?;
+    let grid = match &cache_var(&a)?.frustum {
+        Some(frustum) => vdb_cache::grid_placed(&cache, &options, &frustum.vdb_placement())?,
+        None => vdb_cache::grid_of(&cache, &options)?,
+    };
     let mut metadata: Vec<(String, VdbMeta)> = crate::interp::provenance::of(interp)
         .into_iter()
         .map(|(k, v)| (k, VdbMeta::String(v)))
@@ -307,25 +305,25 @@ impl ReadOptions {
         })
     }
 
-    /// The field reading `cache`, through `var`'s frustum when it has one.
-    fn field(&self, cache: Arc<Cache>, var: Option<&CacheVar>) -> Outcome<Value> {
+    /// The field reading `cache`, through `frustum` when it is a frustum's (`call` names the
+    /// builtin in messages).
+    fn field(
+        &self,
+        cache: Arc<Cache>,
+        frustum: Option<&Arc<Frustum>>,
+        call: &str,
+    ) -> Outcome<Value> {
         let grid: Arc<dyn GridSource> = match self.outside {
             Some(how) => Arc::new(OutsideRead::new(cache, how)),
             None => cache,
         };
-        let grid = match var {
-            Some(var) => {
-                if self.outside == Some(Outside::Extrapolate) {
-                    super::frustum::refuse(
-                        var,
-                        "cacheread with outside = \"extrapolate\"",
-                        "read it with outside = \"background\" or \"hold\"",
-                    )?;
-                }
-                super::frustum::read_at_world(var, grid)
-            }
-            None => grid,
-        };
+        if frustum.is_some() && self.outside == Some(Outside::Extrapolate) {
+            return Err(super::frustum::refusal(
+                &format!("{call} with outside = \"extrapolate\""),
+                "read it with outside = \"background\" or \"hold\"",
+            ));
+        }
+        let grid = super::frustum::read_at_world(frustum, grid);
         Ok(Value::Field(Field::from_grid(
             grid,
             self.interp,
@@ -334,10 +332,15 @@ impl ReadOptions {
     }
 }
 
-/// `cacheload`'s grid as a cache, with a warning when it holds NaN or infinite values.
-fn load_checked(interp: &mut Interpreter, a: &Args, width: usize) -> Outcome<Cache> {
+/// `cacheload`'s grid as a cache (with its frustum, for a grid with OpenVDB's frustum map), with
+/// a warning when it holds NaN or infinite values.
+fn load_checked(
+    interp: &mut Interpreter,
+    a: &Args,
+    width: usize,
+) -> Outcome<(Cache, Option<Arc<Frustum>>)> {
     let (path, name) = (interp.files.reading(a.string("path")?)?, a.string("grid")?);
-    let (cache, check) = vdb_cache::load(&path, name, width)?;
+    let (cache, check, frustum) = vdb_cache::load(&path, name, width)?;
     if let Some(message) = check.warning(&path, name) {
         interp.warnings.push(
             Diagnostic::warning(Stage::Runtime, interp.call_span, message).with_help(
@@ -346,7 +349,7 @@ fn load_checked(interp: &mut Interpreter, a: &Args, width: usize) -> Outcome<Cac
             ),
         );
     }
-    Ok(cache)
+    Ok((cache, frustum.map(Arc::new)))
 }
 
 fn new_cache(a: &Args, shape: Shape, background: Vec<f64>) -> Outcome<Value> {
@@ -475,7 +478,7 @@ fn cacheread(interp: &mut Interpreter, a: Args) -> Outcome<Value> {
     let read = ReadOptions::of(&a)?;
     let state = var.state.borrow().clone();
     match state {
-        Some(cache) => read.field(cache, Some(var)),
+        Some(cache) => read.field(cache, var.frustum.as_ref(), "cacheread"),
         None => {
             interp.warnings.push(
                 Diagnostic::warning(
