@@ -25,7 +25,10 @@ const LAYERS: &[&[&str]] = &[
     &["syntax"],
     // The producers and the renderer.
     &["render", "particles", "cloud", "geometry", "fluids"],
-    &["field", "grid"],
+    // Fields as graphs, which read grids through `space`'s traits and fill caches.
+    &["field"],
+    // Caches and grid files.
+    &["grid"],
     // The sampling vocabulary fields, grids and the renderer share.
     &["space"],
     // The run's context: budget, profile, pools, interrupts.

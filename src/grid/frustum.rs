@@ -25,7 +25,6 @@ mod vdb_map;
 mod vdb_tests;
 
 use crate::base::failure::{Failure, Outcome};
-use crate::field::Field;
 use crate::space::Aabb;
 use crate::space::domain::Domain;
 use glam::{DMat3, DVec3};
@@ -55,6 +54,20 @@ pub struct Frustum {
     /// Image pixels across and down, and depth slices.
     pixels: [usize; 3],
     padding: usize,
+}
+
+/// The map from a frustum cache's index coordinates `q` to world points, as numbers: depth
+/// `d = q.z·depth.0 + depth.1`, across `a = (q.x·across.0 + across.1)·half_width`, upward
+/// `u = (q.y·upward.0 + upward.1)·half_height`, the last two times `d` unless orthographic, and
+/// the point `eye + forward·d + right·a + up·u`. It is bilinear in `q`, so a field built from
+/// it (`field::shapes::frustum_cell_to_world`) keeps interval bounds sound and tight.
+#[derive(Clone, Copy, Debug)]
+pub struct IndexMap {
+    pub view: View,
+    /// `(scale, offset)` of each axis's affine part.
+    pub depth: (f64, f64),
+    pub across: (f64, f64),
+    pub upward: (f64, f64),
 }
 
 impl Frustum {
@@ -320,34 +333,17 @@ impl Frustum {
         )
     }
 
-    /// The map from index coordinates to world points as a field, so that a cache fill
-    /// evaluates `compose(f, map)` at its cell centres: the values of `f` at the centres of
-    /// the frustum's cells (DNB's back-interpolation at voxel centres). It is bilinear in the
-    /// index coordinates, so interval bounds of the composed field stay sound and tight.
-    pub fn index_to_world_field(&self) -> Outcome<Field> {
+    /// The numbers of the map from index coordinates to world points (see [`IndexMap`]).
+    pub fn index_map(&self) -> IndexMap {
         let v = &self.view;
-        let q = Field::identity();
-        let number = Field::constant_scalar;
-        let linear = |axis: usize, scale: f64, offset: f64| -> Outcome<Field> {
-            q.component(axis)?.mul(&number(scale))?.add(&number(offset))
-        };
         let [w, h, d] = self.pixels.map(|n| n as f64);
         let pad = self.padding as f64;
-        let depth = linear(2, (self.far - self.near) / d, self.near)?;
-        let across = linear(0, 2.0 / w, -2.0 * pad / w - 1.0)?;
-        let upward = linear(1, -2.0 / h, 1.0 + 2.0 * pad / h)?;
-        let (mut across, mut upward) = (
-            across.mul(&number(v.half_width))?,
-            upward.mul(&number(v.half_height))?,
-        );
-        if !v.orthographic {
-            across = across.mul(&depth)?;
-            upward = upward.mul(&depth)?;
+        IndexMap {
+            view: *v,
+            depth: ((self.far - self.near) / d, self.near),
+            across: (2.0 / w, -2.0 * pad / w - 1.0),
+            upward: (-2.0 / h, 1.0 + 2.0 * pad / h),
         }
-        Field::constant_vector(v.eye)
-            .add(&Field::constant_vector(v.forward).mul(&depth)?)?
-            .add(&Field::constant_vector(v.right).mul(&across)?)?
-            .add(&Field::constant_vector(v.up).mul(&upward)?)
     }
 
     /// A short description for profiles and messages.

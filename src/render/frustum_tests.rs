@@ -67,7 +67,7 @@ fn in_frustum(field: &Field, pixels: [usize; 3]) -> CompiledField {
 /// points; and the cache itself.
 fn cached(field: &Field, frustum: Frustum, name: &str) -> (Arc<dyn GridSource>, Arc<Cache>) {
     let composed = field
-        .compose(&frustum.index_to_world_field().unwrap())
+        .compose(&crate::field::shapes::frustum_cell_to_world(&frustum.index_map()).unwrap())
         .unwrap();
     let cache = Cache::from_field(
         frustum.index_domain().unwrap(),

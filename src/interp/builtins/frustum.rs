@@ -92,7 +92,9 @@ fn new_frustum_cache(a: &Args, shape: Shape, background: Vec<f64>) -> Outcome<Va
 pub fn field_in_cells(var: &CacheVar, field: &Field) -> Outcome<Field> {
     match &var.frustum {
         None => Ok(field.clone()),
-        Some(frustum) => field.compose(&frustum.index_to_world_field()?),
+        Some(frustum) => field.compose(&crate::field::shapes::frustum_cell_to_world(
+            &frustum.index_map(),
+        )?),
     }
 }
 
