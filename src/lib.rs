@@ -7,7 +7,7 @@
 //! provenance); `check` (types, names, arity: every error before anything runs); `syntax`
 //! (lexer, parser, AST with spans, diagnostics); the producers and the renderer (`render`,
 //! `particles`, `cloud`, `geometry`, `fluids`); `field` (hash-consed graphs compiled into batch
-//! programs) and `grid` (caches and grid files); `space`, the sampling vocabulary they share
+//! programs); `grid` (caches and grid files); `space`, the sampling vocabulary they share
 //! (domains, demand, the traits producers and consumers meet at); `engine` (the run's context:
 //! budget, profile, pools, interrupts); `io` (files in and out, frame patterns); `base` (the
 //! failure type). `tests/layers.rs` holds that order and fails on an import that runs up it,
