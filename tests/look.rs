@@ -194,8 +194,44 @@ fn views_are_monotone_and_keep_black() {
 
 #[test]
 fn unknown_views_are_errors() {
-    assert!(view::View::parse("filmic").is_err() && view::View::parse("AgX").is_err());
+    assert!(view::View::parse("AgX").is_err() && view::View::parse("film").is_err());
     assert_eq!(view::View::parse("agx").ok(), Some(view::View::Agx));
+}
+
+/// `view = "filmic"` reads Filmic's tables from the configuration `$OCIO` names; where that
+/// has none, the render call is a diagnostic that says what to set, before any work.
+#[test]
+fn filmic_without_its_tables_is_a_diagnostic_at_the_render() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("config.ocio"), "search_path: \"luts\"\n").unwrap();
+    std::fs::write(
+        dir.path().join("film.felt"),
+        "camera cam = camera((0, 0, 3), (0, 0, 0), (0, 1, 0), 40);\n\
+         render(\"film.png\", density = mask(sphere((0, 0, 0), 0.5)), camera = cam,\n\
+                width = 8, height = 8, view = \"filmic\");\n",
+    )
+    .unwrap();
+    for ocio in [None, Some(dir.path().join("config.ocio"))] {
+        let mut command = std::process::Command::new(env!("CARGO_BIN_EXE_felt"));
+        command.current_dir(dir.path()).args(["run", "film.felt"]);
+        match &ocio {
+            Some(path) => command.env("OCIO", path),
+            None => command.env_remove("OCIO"),
+        };
+        let out = command.output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{stderr}");
+        let wanted = if ocio.is_some() {
+            "filmic_desat65cube.spi3d"
+        } else {
+            "OCIO is not set"
+        };
+        assert!(
+            stderr.contains(wanted) && stderr.contains("film.felt:2"),
+            "{stderr}"
+        );
+        assert!(!dir.path().join("film.png").exists());
+    }
 }
 
 /// Every EXR says what its pixels are: OpenEXR's standard `chromaticities` attribute holds the

@@ -23,6 +23,7 @@ pub mod deep;
 pub mod deep_exr;
 pub mod exr_header;
 pub mod exr_order;
+pub mod filmic;
 pub mod image;
 pub mod indirect;
 pub mod keywords;

@@ -26,6 +26,9 @@ pub enum View {
     Standard,
     /// AgX: a log encoding and a sigmoid that roll highlights off towards white.
     Agx,
+    /// Blender's Filmic, from the tables of the OpenColorIO configuration `$OCIO` names
+    /// (`filmic.rs`).
+    Filmic,
 }
 
 impl View {
@@ -33,8 +36,9 @@ impl View {
         match name {
             "standard" => Ok(View::Standard),
             "agx" => Ok(View::Agx),
+            "filmic" => super::filmic::tables().map(|_| View::Filmic),
             other => Err(Failure::new(format!(
-                "view must be \"standard\" or \"agx\", found \"{other}\""
+                "view must be \"standard\", \"agx\" or \"filmic\", found \"{other}\""
             ))),
         }
     }
@@ -48,7 +52,28 @@ impl View {
                 let out = agx(DVec3::new(rgb[0] as f64, rgb[1] as f64, rgb[2] as f64));
                 [out.x as f32, out.y as f32, out.z as f32, rgba[3]]
             }
+            // `parse` loaded the tables, so they are there.
+            View::Filmic => match super::filmic::tables() {
+                Ok(tables) => {
+                    let rgb = [rgba[0], rgba[1], rgba[2]]
+                        .map(|c| if c.is_finite() { c as f64 } else { 0.0 });
+                    let shown = tables.encode(rgb).map(|v| srgb_to_linear(v) as f32);
+                    [shown[0], shown[1], shown[2], rgba[3]]
+                }
+                Err(_) => rgba,
+            },
         }
+    }
+}
+
+/// The display-linear value of an sRGB-encoded one (the inverse of the PNG writer's curve), so
+/// that a view whose tables end in sRGB (Filmic) hands the writer what it encodes back.
+fn srgb_to_linear(encoded: f64) -> f64 {
+    let v = encoded.clamp(0.0, 1.0);
+    if v <= 0.04045 {
+        v / 12.92
+    } else {
+        ((v + 0.055) / 1.055).powf(2.4)
     }
 }
 

@@ -532,7 +532,7 @@ pub const KEYWORDS: &[Keyword] = &[
         name: "view",
         kind: KeywordType::Str,
         default: "`\"standard\"`",
-        choices: Some(("view", &["standard", "agx"])),
+        choices: Some(("view", &["standard", "agx", "filmic"])),
         aliases: &[],
         doc: "how a PNG preview shows the scene-linear colour",
         apply: Some(|o, v| {
