@@ -454,24 +454,7 @@ impl FieldSampler for SmoothedCloud {
         }
         let mut lo = [i64::MAX; 3];
         let mut hi = [i64::MIN; 3];
-        for n in 0..8 {
-            let corner = DVec3::new(
-                if n & 1 == 0 {
-                    region.min.x
-                } else {
-                    region.max.x
-                },
-                if n & 2 == 0 {
-                    region.min.y
-                } else {
-                    region.max.y
-                },
-                if n & 4 == 0 {
-                    region.min.z
-                } else {
-                    region.max.z
-                },
-            );
+        for corner in region.corners() {
             let c = self.domain.world_to_local(corner) / self.domain.cell;
             for a in 0..3 {
                 lo[a] = lo[a].min(c[a].floor() as i64 - 1);

@@ -231,7 +231,9 @@ fn parse_spi1d(text: &str) -> Result<Vec<f64>, String> {
 /// and the entry), every entry of the cube given once.
 fn parse_spi3d(text: &str) -> Result<(usize, Vec<[f64; 3]>), String> {
     let mut lines = text.lines().filter(|l| !l.trim().is_empty());
-    let (_, _) = (lines.next(), lines.next());
+    // The format line (`SPILUT 1.0`) and the dimensions line (`3 3`) say nothing needed here.
+    lines.next();
+    lines.next();
     let sizes: Vec<usize> = lines
         .next()
         .ok_or("no sizes")?

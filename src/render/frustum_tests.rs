@@ -3,17 +3,16 @@
 //! than in a box cache of as many cells; the path tracer's majorants bound it; the image is the same for any thread count;
 //! a frustum's cell centres sit on the rays through the camera's pixel centres.
 
-use super::path::majorant::Majorants;
 use crate::base::test_random::SplitMix;
 use crate::field::noise::NoiseKind;
 use crate::field::{CompiledField, Field};
 use crate::grid::cache::Cache;
 use crate::grid::frustum::{Frustum, FrustumRead};
 use crate::render::settings::{Integrator, RenderSettings};
-use crate::render::testing::plain_scene;
+use crate::render::testing::{check_majorants_over_a_random_box, plain_scene};
 use crate::render::{Camera, Image, Light, render};
 use crate::space::domain::Domain;
-use crate::space::{Aabb, FieldSampler, GridSource};
+use crate::space::{Aabb, GridSource};
 use glam::DVec3;
 use std::sync::Arc;
 
@@ -246,34 +245,8 @@ fn a_camera_filling_fog_is_closer_in_a_frustum_than_in_a_box_of_as_many_cells() 
 fn majorants_bound_a_frustum_cache_over_random_boxes() {
     let mut random = SplitMix(0x7e5);
     let field = in_frustum(&smoke(), [10, 9, 7]);
-    let mut eval = field.evaluator();
-    let mut value = [0f32];
     for case in 0..16 {
-        let lo = random.vector(-1.2, 0.6);
-        let size = DVec3::new(
-            random.range(0.1, 1.5),
-            random.range(0.1, 1.5),
-            random.range(0.1, 1.5),
-        );
-        let bounds = Aabb::new(lo, lo + size);
-        let majorants = Majorants::build(&field, None, bounds, 1 + random.below(10)).unwrap();
-        for _ in 0..2000 {
-            let mut p = bounds.min + size * DVec3::new(random.unit(), random.unit(), random.unit());
-            for axis in 0..3 {
-                match random.below(8) {
-                    0 => p[axis] = bounds.min[axis],
-                    1 => p[axis] = bounds.max[axis],
-                    _ => {}
-                }
-            }
-            eval.eval_f32(&[p.x], &[p.y], &[p.z], &mut value);
-            let bound = majorants.at(p);
-            assert!(
-                f64::from(value[0]) <= bound,
-                "case {case}: density {} at {p} above its cell's bound {bound}",
-                value[0]
-            );
-        }
+        check_majorants_over_a_random_box(&field, &mut random, 0.6, 10, 2000, case);
     }
 }
 

@@ -2,6 +2,9 @@
 //! range is exact, and which count how many points they were asked to evaluate (and how many of
 //! those fell inside a box the test declares off-limits, e.g. one that is certainly empty).
 
+use super::path::majorant::Majorants;
+use crate::base::test_random::SplitMix;
+use crate::field::CompiledField;
 use crate::space::{Aabb, BlockEval, FieldSampler};
 use glam::DVec3;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -156,5 +159,47 @@ pub fn plain_scene<'a>(
         velocity: None,
         camera,
         lights,
+    }
+}
+
+/// Checks the majorants' soundness for `field` over one random box (corner in
+/// `[-1.2, lo_max]³`, sides 0.1 to 1.5, 1 to `max_cells` cells a side): at `points` points in
+/// it, on its faces and at its corners, the density read in single precision (what the tracker
+/// reads) is at most the bound of its cell.
+pub fn check_majorants_over_a_random_box(
+    field: &CompiledField,
+    random: &mut SplitMix,
+    lo_max: f64,
+    max_cells: usize,
+    points: usize,
+    case: usize,
+) {
+    let lo = random.vector(-1.2, lo_max);
+    let size = DVec3::new(
+        random.range(0.1, 1.5),
+        random.range(0.1, 1.5),
+        random.range(0.1, 1.5),
+    );
+    let bounds = Aabb::new(lo, lo + size);
+    let majorants = Majorants::build(field, None, bounds, 1 + random.below(max_cells)).unwrap();
+    let mut eval = field.evaluator();
+    let mut value = [0f32];
+    for _ in 0..points {
+        // Points anywhere in the box, and on its faces and corners.
+        let mut p = bounds.min + size * DVec3::new(random.unit(), random.unit(), random.unit());
+        for axis in 0..3 {
+            match random.below(8) {
+                0 => p[axis] = bounds.min[axis],
+                1 => p[axis] = bounds.max[axis],
+                _ => {}
+            }
+        }
+        eval.eval_f32(&[p.x], &[p.y], &[p.z], &mut value);
+        let bound = majorants.at(p);
+        assert!(
+            f64::from(value[0]) <= bound,
+            "case {case}: density {} at {p} above its cell's bound {bound}",
+            value[0]
+        );
     }
 }

@@ -355,12 +355,7 @@ fn local_box_bounds(domain: &Domain, lo: [usize; 3], hi: [usize; 3]) -> Aabb {
     let b = DVec3::new(hi[0] as f64, hi[1] as f64, hi[2] as f64) * domain.cell;
     let mut min = DVec3::splat(f64::INFINITY);
     let mut max = DVec3::splat(f64::NEG_INFINITY);
-    for n in 0..8 {
-        let corner = DVec3::new(
-            if n & 1 == 0 { a.x } else { b.x },
-            if n & 2 == 0 { a.y } else { b.y },
-            if n & 4 == 0 { a.z } else { b.z },
-        );
+    for corner in Aabb::new(a, b).corners() {
         let w = domain.local_to_world(corner);
         min = min.min(w);
         max = max.max(w);

@@ -59,6 +59,18 @@ impl Aabb {
         p.cmpge(self.min).all() && p.cmple(self.max).all()
     }
 
+    /// The eight corners; bit 0 of the index picks x's end, bit 1 y's, bit 2 z's.
+    pub fn corners(&self) -> [DVec3; 8] {
+        let pick = |k: usize, bit: usize, lo: f64, hi: f64| if k & bit == 0 { lo } else { hi };
+        std::array::from_fn(|k| {
+            DVec3::new(
+                pick(k, 1, self.min.x, self.max.x),
+                pick(k, 2, self.min.y, self.max.y),
+                pick(k, 4, self.min.z, self.max.z),
+            )
+        })
+    }
+
     pub fn size(&self) -> DVec3 {
         self.max - self.min
     }
@@ -304,5 +316,33 @@ where
     fn range(&self, _region: &Aabb) -> Vec<(f64, f64)> {
         let range = self.range.unwrap_or((f64::NEG_INFINITY, f64::INFINITY));
         vec![range; self.width]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Aabb;
+    use glam::DVec3;
+
+    #[test]
+    fn a_box_has_its_eight_corners_in_bit_order() {
+        let b = Aabb::new(DVec3::new(-1.0, 2.0, 3.0), DVec3::new(4.0, 5.0, 7.5));
+        let corners = b.corners();
+        for (k, c) in corners.iter().enumerate() {
+            let expect = |bit: usize, axis: usize| {
+                if k & bit == 0 {
+                    b.min[axis]
+                } else {
+                    b.max[axis]
+                }
+            };
+            assert_eq!(
+                *c,
+                DVec3::new(expect(1, 0), expect(2, 1), expect(4, 2)),
+                "corner {k}"
+            );
+        }
+        assert_eq!((corners[0], corners[7]), (b.min, b.max));
+        assert_eq!(corners[5], DVec3::new(4.0, 2.0, 7.5));
     }
 }

@@ -46,24 +46,7 @@ impl Footprint {
                 continue;
             }
             let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-            for k in 0..8 {
-                let p = DVec3::new(
-                    if k & 1 == 0 {
-                        region.min.x
-                    } else {
-                        region.max.x
-                    },
-                    if k & 2 == 0 {
-                        region.min.y
-                    } else {
-                        region.max.y
-                    },
-                    if k & 4 == 0 {
-                        region.min.z
-                    } else {
-                        region.max.z
-                    },
-                );
+            for p in region.corners() {
                 let uv = [(p - origin).dot(axes.0), (p - origin).dot(axes.1)];
                 for a in 0..2 {
                     lo[a] = lo[a].min(uv[a]);
