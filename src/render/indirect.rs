@@ -73,7 +73,10 @@ impl Default for IndirectSettings {
 pub struct IndirectGrid {
     cells: Cells,
     /// Per cell (x fastest), per colour channel; zero where no dense sample can read it.
+    /// Empty where nothing was gathered (no sky, no emission): the march then reads the
+    /// photons alone.
     radiance: Vec<DVec3>,
+    cell_count: usize,
     /// The lights' multiply scattered light, from photons: per cell `∫σs·S dx` and `∫σs dx`.
     photons: Option<Tally>,
     /// Cells estimated, of all.
@@ -196,7 +199,9 @@ impl IndirectGrid {
                 },
             )
             .collect();
-        let refine = photon_refine(total);
+        // The densest cell's optical depth across, at the largest κ.
+        let thickest = inputs.kappa.max_element() * majorants.largest() * cell.max_element();
+        let refine = photon_refine(total, thickest);
         // What the grid holds while the march reads it: its cells, and the photons' (their
         // two halves and first scatterings while they are traced, then sums and masses).
         let photon_cells = photons.map_or(0, |_| total * refine.pow(3));
@@ -249,7 +254,7 @@ impl IndirectGrid {
                 },
             )
             .collect();
-        let mut radiance = vec![DVec3::ZERO; total];
+        let mut radiance = vec![DVec3::ZERO; if gathered > 0 { total } else { 0 }];
         for value in values {
             let (index, light) = value.ok_or_else(|| Failure::new("interrupted"))?;
             // A non-finite estimate would spread through every read that blends it.
@@ -260,6 +265,7 @@ impl IndirectGrid {
         Ok(IndirectGrid {
             cells: Cells::on(bounds, counts),
             radiance,
+            cell_count: total,
             photons: tally,
             estimated: needed.len(),
             _reservation: reservation,
@@ -268,17 +274,20 @@ impl IndirectGrid {
 
     /// All cells of the grid.
     pub fn cells(&self) -> usize {
-        self.radiance.len()
+        self.cell_count
     }
 
     /// `S` at `p`: a trilinear blend of the centres around it, clamped at the box's faces.
     pub fn at(&self, p: DVec3) -> DVec3 {
-        let sum = self
-            .cells
-            .corners(p)
-            .into_iter()
-            .map(|(index, weight)| self.radiance[index] * weight)
-            .sum::<DVec3>();
+        let sum = if self.radiance.is_empty() {
+            DVec3::ZERO
+        } else {
+            self.cells
+                .corners(p)
+                .into_iter()
+                .map(|(index, weight)| self.radiance[index] * weight)
+                .sum::<DVec3>()
+        };
         match &self.photons {
             Some(tally) => sum + tally.at(p),
             None => sum,
@@ -288,7 +297,7 @@ impl IndirectGrid {
 
 /// Paths per batch of a cell's estimate (rounded up to a whole number of rounds over the
 /// sampling axes), and the relative standard error of the cell's mean at which it stops.
-const BATCH: u32 = 16;
+const BATCH: u32 = 8;
 const TOLERANCE: f64 = 0.03;
 
 /// The paths of one cell.
@@ -419,7 +428,7 @@ fn path_count(seen: f64, settings: IndirectSettings) -> u32 {
 }
 
 /// How much the camera sees of the cell at `centre`: the transmittance, at the smallest κ, of
-/// a march of the density at half a cell from where the camera ray enters the box to the
+/// a march of the density a cell at a step from where the camera ray enters the box to the
 /// corner of the cell's neighbourhood (one cell around it) nearest the camera.
 fn camera_sees(
     inputs: &GridInputs,
@@ -450,7 +459,7 @@ fn camera_sees(
     } else {
         length.min((camera.eye - near).length())
     };
-    let step = 0.5 * cell.min_element();
+    let step = cell.min_element();
     let steps = (length / step).ceil() as usize;
     let (mut xs, mut ys, mut zs) = (Vec::new(), Vec::new(), Vec::new());
     for n in 0..steps {
@@ -474,28 +483,36 @@ fn camera_sees(
     (-kappa * column).exp()
 }
 
-/// The photons' cells are twice as fine as the gathered grid's along each axis (photons are
-/// cheap, and a dense cloud's light changes within a few of its mean free paths), as long as
-/// that makes no more than `MOST_PHOTON_CELLS`.
-fn photon_refine(cells: usize) -> usize {
-    if cells * 8 <= MOST_PHOTON_CELLS { 2 } else { 1 }
+/// The photons' cells are twice as fine as the gathered grid's along each axis where the
+/// densest cell is at least a mean free path across (`thickest`, its optical depth): a dense
+/// cloud's light changes within a few of its mean free paths. Where every cell is thinner the
+/// light changes little across a cell, and the gathered grid's own cells hold eight times the
+/// photons each, so the same noise takes fewer. Fine cells only while they number no more
+/// than `MOST_PHOTON_CELLS`.
+fn photon_refine(cells: usize, thickest: f64) -> usize {
+    if thickest >= 1.0 && cells * 8 <= MOST_PHOTON_CELLS {
+        2
+    } else {
+        1
+    }
 }
 
 const MOST_PHOTON_CELLS: usize = 1 << 24;
 
 /// Bytes a photon cell needs at most: two halves, the first scatterings, the masses, the sums
-/// and its bin of the image.
+/// and its share of the image's bins.
 const PHOTON_CELL_BYTES: usize = 4 * std::mem::size_of::<DVec3>()
     + std::mem::size_of::<f64>()
-    + std::mem::size_of::<Option<(usize, f64)>>();
+    + std::mem::size_of::<[(usize, f64); 4]>();
 
-/// The photons for a grid of `needed` cells: at first a quarter of the paths the cells would
-/// gather, doubling until the noise the camera would see is within 7 %, at most four times
-/// as many.
+/// The photons for a grid of `needed` cells: at first a sixteenth of the paths the cells would
+/// gather (a thin medium often needs little more), then as many more as the noise so far says
+/// are needed until the noise the camera would see is within 7 %, at most four times as many
+/// as the cells would gather.
 fn photon_budget(settings: IndirectSettings, needed: usize) -> PhotonBudget {
     let paths = u64::from(settings.paths) * needed as u64;
     PhotonBudget {
-        first: (paths / 4).max(1),
+        first: (paths / 16).max(1),
         most: (paths * 4).max(1),
         tolerance: 0.07,
     }

@@ -51,17 +51,41 @@ pub struct Occupancy {
     pub queries: usize,
 }
 
+/// How a region of the box stands: proven empty, proven to matter everywhere (a density
+/// positive throughout), or neither.
+#[derive(Clone, Copy, PartialEq)]
+enum Standing {
+    Empty,
+    Mixed,
+    Full,
+}
+
 /// May `field` be non-zero in `region`? Density counts only where positive (negative density is
 /// treated as zero); any other field wherever its range is not exactly [0, 0].
 fn may_matter(field: &dyn FieldSampler, region: &Aabb, positive_only: bool) -> bool {
-    field.range(region).iter().any(|&(lo, hi)| {
+    standing(field, region, positive_only) != Standing::Empty
+}
+
+/// As `may_matter`, also saying where a density is positive throughout `region`: every brick
+/// inside it would be marked occupied, so none need be asked (an interval range holds the
+/// field's values, so no sub-box of a box whose density is at least `lo > 0` is empty).
+fn standing(field: &dyn FieldSampler, region: &Aabb, positive_only: bool) -> Standing {
+    let ranges = field.range(region);
+    let matters = ranges.iter().any(|&(lo, hi)| {
         let certainly_zero = if positive_only {
             hi <= 0.0
         } else {
             lo == 0.0 && hi == 0.0
         };
         !certainly_zero
-    })
+    });
+    if !matters {
+        Standing::Empty
+    } else if positive_only && ranges.iter().all(|&(lo, _)| lo > 0.0) {
+        Standing::Full
+    } else {
+        Standing::Mixed
+    }
 }
 
 impl Occupancy {
@@ -87,9 +111,11 @@ impl Occupancy {
             empty_bricks: 0,
             queries: 0,
         };
-        let matters = |region: &Aabb| {
-            may_matter(density, region, true)
-                || emission.is_some_and(|e| may_matter(e, region, false))
+        let matters = |region: &Aabb| match standing(density, region, true) {
+            Standing::Empty if emission.is_some_and(|e| may_matter(e, region, false)) => {
+                Standing::Mixed
+            }
+            density => density,
         };
         let mut leaves = Vec::new();
         grid.queries = classify(&grid, [0, 0, 0], counts, &matters, &mut leaves);
@@ -233,16 +259,21 @@ fn classify(
     grid: &Occupancy,
     lo: [usize; 3],
     hi: [usize; 3],
-    matters: &(dyn Fn(&Aabb) -> bool + Sync),
+    matters: &(dyn Fn(&Aabb) -> Standing + Sync),
     leaves: &mut Vec<usize>,
 ) -> usize {
-    if !matters(&grid.region(lo, hi)) {
+    let standing = matters(&grid.region(lo, hi));
+    if standing == Standing::Empty {
         return 1;
     }
     let extent = [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]];
-    if extent == [1, 1, 1] {
+    if extent == [1, 1, 1] || standing == Standing::Full {
         let n = grid.counts;
-        leaves.push(lo[0] + n[0] * (lo[1] + n[1] * lo[2]));
+        for k in lo[2]..hi[2] {
+            for j in lo[1]..hi[1] {
+                leaves.extend((lo[0]..hi[0]).map(|i| i + n[0] * (j + n[1] * k)));
+            }
+        }
         return 1;
     }
     let axis = (0..3).max_by_key(|&a| (extent[a], 3 - a)).unwrap_or(0);

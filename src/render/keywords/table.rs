@@ -348,7 +348,7 @@ pub const KEYWORDS: &[Keyword] = &[
         default: "64",
         choices: None,
         aliases: &[],
-        doc: "march with albedo: most paths gathered per cell of the indirect grid (sky, emission); the lights' photons number a quarter to four times as many",
+        doc: "march with albedo: most paths gathered per cell of the indirect grid (sky, emission); the lights' photons number a sixteenth to four times as many",
         apply: Some(|o, v| indirect_size(o, v, false)),
     },
     Keyword {
@@ -397,7 +397,7 @@ pub const KEYWORDS: &[Keyword] = &[
     Keyword {
         name: "shadowcell",
         kind: KeywordType::PositiveFloat,
-        default: "the step",
+        default: "the step (a density grid's own cells where they are no finer)",
         choices: None,
         aliases: &[],
         doc: "cell size of the light cache",
