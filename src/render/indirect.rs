@@ -76,7 +76,6 @@ pub struct IndirectGrid {
     /// Empty where nothing was gathered (no sky, no emission): the march then reads the
     /// photons alone.
     radiance: Vec<DVec3>,
-    cell_count: usize,
     /// The lights' multiply scattered light, from photons: per cell `∫σs·S dx` and `∫σs dx`.
     photons: Option<Tally>,
     /// Cells estimated, of all.
@@ -265,7 +264,6 @@ impl IndirectGrid {
         Ok(IndirectGrid {
             cells: Cells::on(bounds, counts),
             radiance,
-            cell_count: total,
             photons: tally,
             estimated: needed.len(),
             _reservation: reservation,
@@ -274,7 +272,7 @@ impl IndirectGrid {
 
     /// All cells of the grid.
     pub fn cells(&self) -> usize {
-        self.cell_count
+        self.cells.counts.iter().product()
     }
 
     /// `S` at `p`: a trilinear blend of the centres around it, clamped at the box's faces.

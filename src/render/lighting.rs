@@ -305,13 +305,18 @@ pub fn grid_domain(density: &dyn FieldSampler) -> Option<Domain> {
 /// the default light cache over `bounds` would: then sweeping the grid's own cells is cheaper
 /// than the default cache and as exact.
 fn no_finer_than_step(grid: &Domain, bounds: Aabb, step: f64) -> bool {
-    let longest = bounds.size().max_element();
-    let cell = step.max(longest / MAX_SWEPT_CELLS);
+    let cell = default_cell(bounds, step, MAX_SWEPT_CELLS);
     let default_cells = (bounds.size() / cell).ceil();
     let grid_cells = grid.cell_count() as f64;
     grid.cell.x.min(grid.cell.y).min(grid.cell.z) >= 0.999 * cell
         && grid_cells
             <= default_cells.x.max(1.0) * default_cells.y.max(1.0) * default_cells.z.max(1.0)
+}
+
+/// The default light cache's cell: the step, or coarser where the box would otherwise hold
+/// more than `max_cells` cells along its longest side.
+fn default_cell(bounds: Aabb, step: f64, max_cells: f64) -> f64 {
+    step.max(bounds.size().max_element() / max_cells)
 }
 
 /// The grid over `bounds` for one light's columns.
@@ -322,9 +327,8 @@ fn shadow_domain(
     cell_size: Option<f64>,
     method: TransmissivityMethod,
 ) -> Outcome<Domain> {
-    let longest = bounds.size().max_element();
     let cells = |max_cells: f64| {
-        let cell = cell_size.unwrap_or(step.max(longest / max_cells));
+        let cell = cell_size.unwrap_or(default_cell(bounds, step, max_cells));
         Domain::fitted(bounds.min, bounds.size(), DVec3::ZERO, cell)
     };
     let swept = cells(MAX_SWEPT_CELLS)?;
